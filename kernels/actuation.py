@@ -1,0 +1,223 @@
+"""Joint actuation: leg position PD, wheel velocity PID, motor-strength scaling and torque limits.
+
+References:
+    Leg PD (Kp 40, Kd 1) and wheel velocity control: the paper's first author's public sim-to-sim harness,
+    summarised in ``../shared/reference/SIMULATION_FACTS.md``. Joint order and torque limits:
+    ``wqwarp/constants.py`` (12 leg joints FR, FL, RR, RL x (hip, thigh, calf), then 4 wheels).
+
+Per physics substep, for actuated joint ``j`` of robot ``w``::
+
+    tau_j = clip(strength_wj * ctrl_j, -limit_j, limit_j)
+    ctrl_j = leg_pd_torque(...)     for j < 12   (position target [rad])
+    ctrl_j = wheel_pid_torque(...)  for j >= 12  (velocity target [rad/s])
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+NUM_ACTUATED = wp.constant(16)
+NUM_LEG_JOINTS = wp.constant(12)
+NUM_WHEELS = wp.constant(4)
+
+
+@wp.func
+def leg_pd_torque(q_target: float, q: float, qd: float, kp: float, kd: float, limit: float) -> float:
+    """tau = clip(kp * (q_target - q) - kd * qd, -limit, limit) [N m].
+
+    Position PD of one leg joint: q_target, q [rad], qd [rad/s], kp [N m/rad], kd [N m s/rad], limit [N m].
+    """
+    return wp.clamp(kp * (q_target - q) - kd * qd, -limit, limit)
+
+
+@wp.func
+def wheel_pid_torque(
+    qd_target: float,
+    qd: float,
+    integral: float,
+    prev_error: float,
+    kp: float,
+    ki: float,
+    kd: float,
+    i_limit: float,
+    limit: float,
+    dt: float,
+) -> wp.vec3:
+    """tau = clip(kp * e + ki * I + kd * (e - e_prev) / dt, -limit, limit) [N m], e = qd_target - qd [rad/s].
+
+    Velocity PID of one wheel. The integral I [rad] is updated as ``clamp(I + e * dt, -i_limit, i_limit)``
+    (anti-windup by clamping), except that it is held when the step would increase |I| while the unclipped output
+    computed with the held integral, ``u = kp * e + ki * I + kd * de``, is already beyond ``limit`` in the step's
+    direction (conditional integration). The derivative acts on the error difference, so the first step after a
+    reset (e_prev = 0) sees the full error as a difference.
+
+    Returns:
+        wp.vec3(tau [N m], new integral I [rad], error e [rad/s]); the caller stores I and e for the next step.
+    """
+    e = qd_target - qd
+    de = (e - prev_error) / dt
+    u_held = kp * e + ki * integral + kd * de
+    step = e * dt
+    i_new = wp.clamp(integral + step, -i_limit, i_limit)
+    if wp.abs(u_held) > limit and u_held * step > 0.0 and wp.abs(integral + step) > wp.abs(integral):
+        i_new = integral
+    tau = wp.clamp(kp * e + ki * i_new + kd * de, -limit, limit)
+    return wp.vec3(tau, i_new, e)
+
+
+@wp.kernel
+def apply_actuation(
+    joint_q: wp.array2d(dtype=wp.float32),
+    joint_qd: wp.array2d(dtype=wp.float32),
+    coord_index: wp.array(dtype=wp.int32),
+    dof_index: wp.array(dtype=wp.int32),
+    leg_q_target: wp.array2d(dtype=wp.float32),
+    wheel_qd_target: wp.array2d(dtype=wp.float32),
+    leg_kp: float,
+    leg_kd: float,
+    wheel_kp: float,
+    wheel_ki: float,
+    wheel_kd: float,
+    wheel_i_limit: float,
+    torque_limit: wp.array(dtype=wp.float32),
+    motor_strength: wp.array2d(dtype=wp.float32),
+    dt: float,
+    # state (read and written)
+    wheel_integral: wp.array2d(dtype=wp.float32),
+    wheel_prev_error: wp.array2d(dtype=wp.float32),
+    # outputs
+    joint_torque: wp.array2d(dtype=wp.float32),
+    joint_f: wp.array2d(dtype=wp.float32),
+):
+    """One thread per robot: PD on the 12 leg joints, PID on the 4 wheels, strength scale, clip, scatter."""
+    world = wp.tid()
+    for j in range(NUM_ACTUATED):
+        limit = torque_limit[j]
+        q = joint_q[world, coord_index[j]]
+        qd = joint_qd[world, dof_index[j]]
+        ctrl = wp.float32(0.0)
+        if j < NUM_LEG_JOINTS:
+            ctrl = leg_pd_torque(leg_q_target[world, j], q, qd, leg_kp, leg_kd, limit)
+        else:
+            k = j - NUM_LEG_JOINTS
+            pid = wheel_pid_torque(
+                wheel_qd_target[world, k],
+                qd,
+                wheel_integral[world, k],
+                wheel_prev_error[world, k],
+                wheel_kp,
+                wheel_ki,
+                wheel_kd,
+                wheel_i_limit,
+                limit,
+                dt,
+            )
+            ctrl = pid[0]
+            wheel_integral[world, k] = pid[1]
+            wheel_prev_error[world, k] = pid[2]
+        tau = wp.clamp(motor_strength[world, j] * ctrl, -limit, limit)
+        joint_torque[world, j] = tau
+        joint_f[world, dof_index[j]] = tau
+
+
+@wp.kernel
+def reset_wheel_pid(
+    env_ids: wp.array(dtype=wp.int32),
+    # outputs
+    wheel_integral: wp.array2d(dtype=wp.float32),
+    wheel_prev_error: wp.array2d(dtype=wp.float32),
+):
+    """Zero the wheel PID state (integral and previous error) of robots ``env_ids``; dim = len(env_ids)."""
+    i = wp.tid()
+    world = env_ids[i]
+    for k in range(NUM_WHEELS):
+        wheel_integral[world, k] = 0.0
+        wheel_prev_error[world, k] = 0.0
+
+
+def launch_actuation(
+    joint_q: wp.array,
+    joint_qd: wp.array,
+    leg_q_target: wp.array,
+    wheel_qd_target: wp.array,
+    torque_limit: wp.array,
+    motor_strength: wp.array,
+    wheel_integral: wp.array,
+    wheel_prev_error: wp.array,
+    joint_torque: wp.array,
+    joint_f: wp.array,
+    coord_index: wp.array,
+    dof_index: wp.array,
+    *,
+    leg_kp: float,
+    leg_kd: float,
+    wheel_kp: float,
+    wheel_ki: float,
+    wheel_kd: float,
+    wheel_i_limit: float,
+    dt: float,
+    device=None,
+) -> None:
+    """Compute and apply the actuated-joint torques of every robot for one physics substep.
+
+    All arrays are float32; ``W`` = world_count. Flat Newton arrays (``model.joint_q`` etc.) can be passed as
+    ``arr.reshape((W, per_world))``.
+
+    Args:
+        joint_q: (W, coords_per_world) joint coordinates; actuated joint j at column ``coord_index[j]`` [rad].
+        joint_qd: (W, dofs_per_world) joint velocities; actuated joint j at column ``dof_index[j]`` [rad/s].
+        leg_q_target: (W, 12) leg position targets [rad].
+        wheel_qd_target: (W, 4) wheel velocity targets [rad/s].
+        torque_limit: (16,) torque limit per actuated joint [N m].
+        motor_strength: (W, 16) multiplicative torque scale (domain randomisation) [-], applied after PD/PID.
+        wheel_integral: (W, 4) wheel PID integral state [rad], updated in place.
+        wheel_prev_error: (W, 4) wheel PID previous velocity error [rad/s], updated in place.
+        joint_torque: (W, 16) output torques [N m].
+        joint_f: (W, dofs_per_world) generalized forces; columns ``dof_index`` are written [N m],
+            the others are left untouched.
+        leg_kp, leg_kd: leg PD gains [N m/rad], [N m s/rad].
+        wheel_kp, wheel_ki, wheel_kd: wheel PID gains [N m s/rad], [N m/rad], [N m s^2/rad].
+        wheel_i_limit: bound of the wheel integral [rad].
+        dt: physics substep [s].
+        coord_index, dof_index: (16,) int32 column of each actuated joint (project order) in a world's
+            ``joint_q`` / ``joint_qd`` row (``wqwarp.robot.RobotLayout``).
+        device: Warp device to launch on (default: the arrays' device).
+    """
+    wp.launch(
+        apply_actuation,
+        dim=joint_q.shape[0],
+        inputs=[
+            joint_q,
+            joint_qd,
+            coord_index,
+            dof_index,
+            leg_q_target,
+            wheel_qd_target,
+            leg_kp,
+            leg_kd,
+            wheel_kp,
+            wheel_ki,
+            wheel_kd,
+            wheel_i_limit,
+            torque_limit,
+            motor_strength,
+            dt,
+            wheel_integral,
+            wheel_prev_error,
+        ],
+        outputs=[joint_torque, joint_f],
+        device=device or joint_q.device,
+    )
+
+
+def launch_reset_wheel_pid(env_ids: wp.array, wheel_integral: wp.array, wheel_prev_error: wp.array, device=None):
+    """Zero the wheel PID state of the robots ``env_ids`` ((n,) int32); state arrays are (W, 4) float32."""
+    if env_ids.shape[0] == 0:
+        return
+    wp.launch(
+        reset_wheel_pid,
+        dim=env_ids.shape[0],
+        inputs=[env_ids],
+        outputs=[wheel_integral, wheel_prev_error],
+        device=device or env_ids.device,
+    )

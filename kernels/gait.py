@@ -1,0 +1,322 @@
+"""Augmented nominal gait: leg phases, swing trajectory, nominal leg targets and nominal wheel velocities.
+
+References:
+    Paper, "Augmented Nominal Gait Design": Eq. (1) phase update, Eq. (2) swing height F(psi), Eq. (3) nominal
+    wheel velocity, Table I gait library (``wqwarp.gaits``).
+
+Per leg i (FR, FL, RR, RL) and policy step::
+
+    phi_i <- (phi_i + f dt + dphi_i) mod 1                       Eq. (1), dphi_i = the policy's phase residual
+    swing  while phi_i < DF_swing, psi = phi_i / DF_swing in [0, 1); stance otherwise
+    p_n,i = (0, side 0.1045, F(psi))  in the hip frame            Eq. (2); F = -h_b in stance
+    q_n,i = IK(p_n,i)
+    v_n,i = (v_x - d_i w_z) / R  if the wheel touches the ground, else the previous v_n,i     Eq. (3)
+
+Nominal placement: the paper keeps the wheel "fixed relative to the hip link frame, determined solely by the body
+height h_b". We put it straight below the hip joint (x = 0) at the lateral offset of the straight leg,
+y = side (0.08 + 0.0245) = side 0.1045 m, so the nominal stance has zero abduction and its IK is
+``constants.DEFAULT_LEG_ANGLES``. Only z moves (Eq. (2)); the policy's residuals move x and y.
+
+Gait switching (the requested gait ``gait_id`` may change at any policy step): each world keeps an
+``active_gait_id``. A request that differs from it is applied at the first step at which no leg of the active gait
+is in swing (all phases >= DF_swing; immediately for driving, whose legs never swing). The phases are then re-based
+to the new gait's offsets at the start of one of its all-stance windows: phi_i = (r + offset_i) mod 1 with
+r = DF_swing - offset_k for the first leg k for which every leg is then in stance (leg k has just landed). Before
+and after the re-base every leg is in stance at z = -h_b, so the wheel-centre target stays continuous: its largest
+per-step change is the ordinary one, |dF/dpsi| * dpsi <= 3 h_s (f dt + |dphi|) / DF_swing, with or without
+switches. A pending request waits at most about one cycle of the active gait (longer only if phase residuals step
+over an all-stance window); requesting the active gait again cancels it. Accumulated phase residuals are dropped at
+a re-base. Every Table I gait has an all-stance window (tested); a gait without one is re-based at r = DF - offset_0
+and its other legs may jump. Observations (f, DF_swing) should read the active gait, not the requested one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import warp as wp
+
+from wqwarp import constants
+
+from .kinematics import LEG_LATERAL_OFFSET, LEG_SIDE, leg_fk, leg_ik
+
+NOMINAL_WHEEL_X = wp.constant(0.0)
+"""x of the nominal wheel centre in the hip frame [m]: straight below the hip joint."""
+HIP_OFFSET_Y = wp.constant(float(constants.HIP_OFFSET_Y))
+"""|y| of the hip joint in the base (trunk) frame [m]."""
+WHEEL_RADIUS = wp.constant(float(constants.WHEEL_RADIUS))
+"""Wheel radius R [m]."""
+WHEEL_FORWARD_SIGN = wp.constant(float(constants.WHEEL_FORWARD_SIGN))
+"""+1: a positive wheel speed rolls the robot forward."""
+REBASE_EPS = wp.constant(1.0e-4)
+"""Margin [cycles] past a leg's touch-down at a re-base, so float rounding cannot leave it at psi ~ 1 in swing."""
+
+
+# --- paper equations ---------------------------------------------------------------------------------------------
+@wp.func
+def wrap_phase(x: float) -> float:
+    """x mod 1 in [0, 1) [cycles]; negative x wraps up."""
+    r = x - wp.floor(x)
+    if r >= 1.0:  # x - floor(x) rounds to 1 for tiny negative x in float32
+        r = 0.0
+    return r
+
+
+@wp.func
+def phase_update(phi: float, f: float, dt: float, dphi: float) -> float:
+    """Eq. (1) phase update phi' = (phi + f dt + dphi) mod 1, in [0, 1).
+
+    phi [cycles], f gait frequency [Hz], dt policy step [s], dphi the policy's phase residual Delta phi_i [cycles]
+    (the paper's action adds it to each leg's phase; dphi = 0 gives the paper's Eq. (1)). Negative values wrap.
+    """
+    return wrap_phase(phi + f * dt + dphi)
+
+
+@wp.func
+def swing_progress(phi: float, df_swing: float) -> float:
+    """Swing progress psi = phi / DF_swing in [0, 1) while phi < DF_swing; -1 in stance (always for DF_swing = 0).
+
+    phi leg phase [cycles], df_swing swing duty factor DF_swing [-].
+    """
+    if phi < df_swing:
+        return phi / df_swing
+    return -1.0
+
+
+@wp.func
+def swing_height(psi: float, h_b: float, h_s: float) -> float:
+    """Eq. (2) swing height F(psi): wheel-centre z in the hip frame [m].
+
+    F = -h_b + h_s (-16 psi^3 + 12 psi^2) for psi in [0, 0.5], -h_b + h_s (16 psi^3 - 36 psi^2 + 24 psi - 4) for
+    psi in (0.5, 1]; -h_b in stance (psi < 0). h_b body height [m], h_s swing height [m]. F(0) = F(1) = -h_b,
+    F(0.5) = -h_b + h_s, F is C1 with zero slope at 0, 0.5 and 1.
+    """
+    if psi < 0.0:
+        return -h_b
+    if psi <= 0.5:
+        return -h_b + h_s * (-16.0 * psi * psi * psi + 12.0 * psi * psi)
+    return -h_b + h_s * (16.0 * psi * psi * psi - 36.0 * psi * psi + 24.0 * psi - 4.0)
+
+
+@wp.func
+def nominal_wheel_velocity(vx: float, wz: float, d: float, radius: float, forward_sign: float) -> float:
+    """Eq. (3) nominal wheel velocity v_n = forward_sign (v_x - d w_z) / R [rad/s].
+
+    vx commanded forward velocity [m/s], wz commanded yaw rate [rad/s], d signed lateral (y) position of the wheel
+    centre in the base frame [m], radius R [m]. The paper's leading minus is forward_sign = -1 for its wheel axes;
+    ours point +y, so forward_sign = constants.WHEEL_FORWARD_SIGN = +1. The lateral command v_y does not enter
+    Eq. (3): wheels cannot roll sideways, the legs produce v_y.
+    """
+    return forward_sign * (vx - d * wz) / radius
+
+
+# --- gait switching ------------------------------------------------------------------------------------------------
+@wp.func
+def stance_reference_phase(offsets: wp.vec4, df_swing: float) -> float:
+    """Reference phase r [cycles] at which every leg (r + offset_i) mod 1 of a gait is in stance, just after a
+    touch-down: r = DF_swing - offset_k (+ margin) for the first leg k that gives an all-stance configuration;
+    the k = 0 candidate when the gait has no all-stance window."""
+    for k in range(4):
+        r = wrap_phase(df_swing - offsets[k] + REBASE_EPS)
+        ok = True
+        for i in range(4):
+            if wrap_phase(r + offsets[i]) < df_swing:
+                ok = False
+        if ok:
+            return r
+    return wrap_phase(df_swing - offsets[0] + REBASE_EPS)
+
+
+@wp.kernel
+def apply_gait_switch(
+    gait_id: wp.array(dtype=wp.int32),
+    phase_offsets: wp.array2d(dtype=float),
+    df_swing: wp.array(dtype=float),
+    # outputs
+    phase: wp.array2d(dtype=float),
+    active_gait_id: wp.array(dtype=wp.int32),
+):
+    """Per world: apply a requested gait once no leg of the active gait is in swing, re-basing the phases."""
+    world = wp.tid()
+    new = gait_id[world]
+    old = active_gait_id[world]
+    if new == old:
+        return
+    for leg in range(4):
+        if phase[world, leg] < df_swing[old]:
+            return  # a leg is in swing: keep the request pending
+    offsets = wp.vec4(phase_offsets[new, 0], phase_offsets[new, 1], phase_offsets[new, 2], phase_offsets[new, 3])
+    r = stance_reference_phase(offsets, df_swing[new])
+    for leg in range(4):
+        phase[world, leg] = wrap_phase(r + offsets[leg])
+    active_gait_id[world] = new
+
+
+@wp.kernel
+def reset_gait_phases(
+    env_ids: wp.array(dtype=wp.int32),
+    gait_id: wp.array(dtype=wp.int32),
+    phase_offsets: wp.array2d(dtype=float),
+    df_swing: wp.array(dtype=float),
+    # outputs
+    phase: wp.array2d(dtype=float),
+    active_gait_id: wp.array(dtype=wp.int32),
+    wheel_velocity: wp.array2d(dtype=float),
+):
+    """For each world in env_ids: make gait_id active, phases at an all-stance point of it, wheel targets 0."""
+    world = env_ids[wp.tid()]
+    g = gait_id[world]
+    offsets = wp.vec4(phase_offsets[g, 0], phase_offsets[g, 1], phase_offsets[g, 2], phase_offsets[g, 3])
+    r = stance_reference_phase(offsets, df_swing[g])
+    for leg in range(4):
+        phase[world, leg] = wrap_phase(r + offsets[leg])
+        wheel_velocity[world, leg] = 0.0
+    active_gait_id[world] = g
+
+
+# --- nominal gait --------------------------------------------------------------------------------------------------
+@wp.kernel
+def compute_nominal_gait(
+    active_gait_id: wp.array(dtype=wp.int32),
+    df_swing: wp.array(dtype=float),
+    frequency: wp.array(dtype=float),
+    command: wp.array2d(dtype=float),
+    phase_residual: wp.array2d(dtype=float),
+    leg_joint_pos: wp.array2d(dtype=float),
+    contact: wp.array2d(dtype=wp.int32),
+    dt: float,
+    h_b: float,
+    h_s: float,
+    # outputs
+    phase: wp.array2d(dtype=float),
+    swing_psi: wp.array2d(dtype=float),
+    wheel_target: wp.array2d(dtype=wp.vec3),
+    leg_joint_target: wp.array2d(dtype=float),
+    wheel_velocity: wp.array2d(dtype=float),
+):
+    """Per (world, leg): Eq. (1) phase, swing progress, Eq. (2) wheel-centre target and its IK, Eq. (3) wheel speed."""
+    world, leg = wp.tid()
+    g = active_gait_id[world]
+    side = LEG_SIDE[leg]
+
+    phi = phase_update(phase[world, leg], frequency[g], dt, phase_residual[world, leg])
+    psi = swing_progress(phi, df_swing[g])
+    p_n = wp.vec3(NOMINAL_WHEEL_X, side * LEG_LATERAL_OFFSET, swing_height(psi, h_b, h_s))
+    q_n = leg_ik(p_n, side)
+
+    phase[world, leg] = phi
+    swing_psi[world, leg] = psi
+    wheel_target[world, leg] = p_n
+    for j in range(3):
+        leg_joint_target[world, 3 * leg + j] = q_n[j]
+
+    if contact[world, leg] != 0:
+        q = wp.vec3(leg_joint_pos[world, 3 * leg], leg_joint_pos[world, 3 * leg + 1], leg_joint_pos[world, 3 * leg + 2])
+        d = side * HIP_OFFSET_Y + leg_fk(q, side)[1]  # wheel-centre y in the base frame
+        wheel_velocity[world, leg] = nominal_wheel_velocity(
+            command[world, 0], command[world, 2], d, WHEEL_RADIUS, WHEEL_FORWARD_SIGN
+        )
+    # else: in the air, keep the previous nominal wheel velocity (paper: "preserved from the previous moment")
+
+
+# --- Python side ---------------------------------------------------------------------------------------------------
+@dataclass
+class NominalGaitState:
+    """Buffers of the nominal gait for world_count worlds, allocated once (legs FR, FL, RR, RL)."""
+
+    phase: wp.array2d
+    """(world_count, 4) float32 leg phases phi in [0, 1) [cycles] (state)."""
+    active_gait_id: wp.array
+    """(world_count,) int32 gait id in effect; lags the requested gait until a switch is applied (state)."""
+    wheel_velocity: wp.array2d
+    """(world_count, 4) float32 nominal wheel velocities v_n [rad/s] (state: kept while a wheel is in the air)."""
+    swing_psi: wp.array2d
+    """(world_count, 4) float32 swing progress psi in [0, 1), -1 in stance [-]."""
+    wheel_target: wp.array2d
+    """(world_count, 4) vec3 nominal wheel-centre targets p_n in each hip frame [m]."""
+    leg_joint_target: wp.array2d
+    """(world_count, 12) float32 nominal leg joint targets IK(p_n) [rad]."""
+
+    @classmethod
+    def allocate(cls, world_count: int, device: wp.context.Devicelike = None) -> NominalGaitState:
+        """Zeroed buffers; call :func:`reset_nominal_gait` before the first step."""
+        n, legs = world_count, constants.NUM_LEGS
+        return cls(
+            phase=wp.zeros((n, legs), dtype=float, device=device),
+            active_gait_id=wp.zeros(n, dtype=wp.int32, device=device),
+            wheel_velocity=wp.zeros((n, legs), dtype=float, device=device),
+            swing_psi=wp.zeros((n, legs), dtype=float, device=device),
+            wheel_target=wp.zeros((n, legs), dtype=wp.vec3, device=device),
+            leg_joint_target=wp.zeros((n, constants.NUM_LEG_JOINTS), dtype=float, device=device),
+        )
+
+
+def reset_nominal_gait(state: NominalGaitState, env_ids: wp.array, gait_id: wp.array, gaits) -> None:
+    """Reset the worlds in ``env_ids`` ((n,) int32) to gait ``gait_id[world]`` ((world_count,) int32).
+
+    ``gaits`` holds ``phase_offsets`` (num_gaits, 4), ``df_swing`` (num_gaits,) and ``frequency`` (num_gaits,)
+    float32 arrays (``wqwarp.gaits.gait_library_arrays``). Phases start just after a touch-down with every leg in
+    stance; nominal wheel velocities start at 0.
+    """
+    wp.launch(
+        reset_gait_phases,
+        dim=env_ids.shape[0],
+        inputs=[env_ids, gait_id, gaits.phase_offsets, gaits.df_swing],
+        outputs=[state.phase, state.active_gait_id, state.wheel_velocity],
+        device=state.phase.device,
+    )
+
+
+def step_nominal_gait(
+    state: NominalGaitState,
+    gaits,
+    gait_id: wp.array,
+    command: wp.array2d,
+    phase_residual: wp.array2d,
+    leg_joint_pos: wp.array2d,
+    contact: wp.array2d,
+    dt: float,
+    h_b: float = constants.NOMINAL_BODY_HEIGHT,
+    h_s: float = constants.NOMINAL_SWING_HEIGHT,
+) -> None:
+    """Advance the nominal gait by one policy step (gait switch, then :func:`compute_nominal_gait`), in place.
+
+    Args:
+        state: buffers from :meth:`NominalGaitState.allocate`, updated in place.
+        gaits: gait library arrays (``wqwarp.gaits.GaitArrays``).
+        gait_id: (world_count,) int32 requested gait per world (applied as described in the module docstring).
+        command: (world_count, 3) float32 (v_x [m/s], v_y [m/s], w_z [rad/s]) in the base frame.
+        phase_residual: (world_count, 4) float32 policy phase residuals dphi [cycles].
+        leg_joint_pos: (world_count, 12) float32 measured leg joint positions [rad] (for d in Eq. (3)).
+        contact: (world_count, 4) int32 wheel ground contact, nonzero = in contact.
+        dt: policy step [s].
+        h_b: nominal body height [m].
+        h_s: swing height [m].
+    """
+    world_count = state.phase.shape[0]
+    device = state.phase.device
+    wp.launch(
+        apply_gait_switch,
+        dim=world_count,
+        inputs=[gait_id, gaits.phase_offsets, gaits.df_swing],
+        outputs=[state.phase, state.active_gait_id],
+        device=device,
+    )
+    wp.launch(
+        compute_nominal_gait,
+        dim=(world_count, constants.NUM_LEGS),
+        inputs=[
+            state.active_gait_id,
+            gaits.df_swing,
+            gaits.frequency,
+            command,
+            phase_residual,
+            leg_joint_pos,
+            contact,
+            float(dt),
+            float(h_b),
+            float(h_s),
+        ],
+        outputs=[state.phase, state.swing_psi, state.wheel_target, state.leg_joint_target, state.wheel_velocity],
+        device=device,
+    )

@@ -1,0 +1,98 @@
+"""Conversions between MuJoCo's generalized coordinates and Newton's ``joint_q`` / ``joint_qd``.
+
+For a robot whose root is a free joint at the world origin, the two layouts differ only in the root:
+    MuJoCo  qpos[0:7] = (p, q_wxyz);  qvel[0:3] = v of the body origin, world frame; qvel[3:6] = omega, body frame
+    Newton  q[0:7]    = (p, q_xyzw);  qd[0:3]   = v of the body COM, world frame;    qd[3:6]   = omega, world frame
+Hinge coordinates are identical and in the same order (both walk the tree depth-first).
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+
+@wp.func
+def com_velocity_from_origin(v_origin: wp.vec3, omega_world: wp.vec3, rot: wp.quat, com_local: wp.vec3) -> wp.vec3:
+    """v_com = v_origin + omega x (R c) [m/s]: velocity of the COM from that of the body origin."""
+    return v_origin + wp.cross(omega_world, wp.quat_rotate(rot, com_local))
+
+
+@wp.kernel
+def mujoco_state_to_newton(
+    mj_state: wp.array2d(dtype=wp.float64),
+    qpos_start: int,
+    root_com: wp.vec3,
+    # outputs
+    joint_q: wp.array2d(dtype=wp.float32),
+    joint_qd: wp.array2d(dtype=wp.float32),
+):
+    """Mirror MuJoCo full-physics state rows (N, nstate) into Newton ``joint_q`` (N, nq) and ``joint_qd`` (N, nv)."""
+    world = wp.tid()
+    nq = joint_q.shape[1]
+    nv = joint_qd.shape[1]
+    a = qpos_start
+    rot = wp.quat(
+        wp.float32(mj_state[world, a + 4]),
+        wp.float32(mj_state[world, a + 5]),
+        wp.float32(mj_state[world, a + 6]),
+        wp.float32(mj_state[world, a + 3]),
+    )
+    for i in range(3):
+        joint_q[world, i] = wp.float32(mj_state[world, a + i])
+    joint_q[world, 3] = rot[0]
+    joint_q[world, 4] = rot[1]
+    joint_q[world, 5] = rot[2]
+    joint_q[world, 6] = rot[3]
+    for i in range(7, nq):
+        joint_q[world, i] = wp.float32(mj_state[world, a + i])
+    b = a + nq
+    v_o = wp.vec3(
+        wp.float32(mj_state[world, b]), wp.float32(mj_state[world, b + 1]), wp.float32(mj_state[world, b + 2])
+    )
+    w_b = wp.vec3(
+        wp.float32(mj_state[world, b + 3]), wp.float32(mj_state[world, b + 4]), wp.float32(mj_state[world, b + 5])
+    )
+    w_w = wp.quat_rotate(rot, w_b)
+    v_c = com_velocity_from_origin(v_o, w_w, rot, root_com)
+    for i in range(3):
+        joint_qd[world, i] = v_c[i]
+        joint_qd[world, 3 + i] = w_w[i]
+    for i in range(6, nv):
+        joint_qd[world, i] = wp.float32(mj_state[world, b + i])
+
+
+@wp.kernel
+def newton_state_to_mujoco(
+    joint_q: wp.array2d(dtype=wp.float32),
+    joint_qd: wp.array2d(dtype=wp.float32),
+    env_ids: wp.array(dtype=wp.int32),
+    qpos_start: int,
+    root_com: wp.vec3,
+    # outputs
+    mj_state: wp.array2d(dtype=wp.float64),
+):
+    """Write Newton coordinates of the robots in ``env_ids`` into their MuJoCo state rows (inverse of the above)."""
+    i = wp.tid()
+    world = env_ids[i]
+    nq = joint_q.shape[1]
+    nv = joint_qd.shape[1]
+    a = qpos_start
+    rot = wp.normalize(wp.quat(joint_q[world, 3], joint_q[world, 4], joint_q[world, 5], joint_q[world, 6]))
+    for k in range(3):
+        mj_state[world, a + k] = wp.float64(joint_q[world, k])
+    mj_state[world, a + 3] = wp.float64(rot[3])
+    mj_state[world, a + 4] = wp.float64(rot[0])
+    mj_state[world, a + 5] = wp.float64(rot[1])
+    mj_state[world, a + 6] = wp.float64(rot[2])
+    for k in range(7, nq):
+        mj_state[world, a + k] = wp.float64(joint_q[world, k])
+    b = a + nq
+    v_c = wp.vec3(joint_qd[world, 0], joint_qd[world, 1], joint_qd[world, 2])
+    w_w = wp.vec3(joint_qd[world, 3], joint_qd[world, 4], joint_qd[world, 5])
+    v_o = v_c - wp.cross(w_w, wp.quat_rotate(rot, root_com))
+    w_b = wp.quat_rotate_inv(rot, w_w)
+    for k in range(3):
+        mj_state[world, b + k] = wp.float64(v_o[k])
+        mj_state[world, b + 3 + k] = wp.float64(w_b[k])
+    for k in range(6, nv):
+        mj_state[world, b + k] = wp.float64(joint_qd[world, k])

@@ -1,0 +1,120 @@
+"""Names, order and geometry of the wheeled Go1, in one place.
+
+Every module that indexes legs, joints or bodies imports them from here.
+
+References:
+    Go1 kinematics, limits and masses: MuJoCo Menagerie ``unitree_go1/go1.xml`` (BSD-3, commit 1f39894) and Unitree's
+    ``go1_description`` URDF, summarised in ``../shared/reference/go1/FACTS.md``.
+    Wheel numbers: the paper's first author's public sim-to-sim harness (MIT), summarised in
+    ``../shared/reference/SIMULATION_FACTS.md``; AK80-6 data sheet (T-Motor) for the wheel motor.
+
+Actuated joint order (16), used for every per-joint array (targets, torques, velocities, actions)::
+
+    index  0  1  2 | 3  4  5 | 6  7  8 | 9 10 11 | 12 13 14 15
+    leg    FR      | FL      | RR      | RL      | wheels FR FL RR RL
+    joint  hip thigh calf (each leg)             |
+
+Leg order FR, FL, RR, RL is the Go1 MJCF order (qpos and actuators). Wheels come after the 12 leg joints, as
+in public Go2-W deploy configs (wheel indices 12-15).
+"""
+
+from __future__ import annotations
+
+import os
+
+LEG_NAMES: tuple[str, ...] = ("FR", "FL", "RR", "RL")
+"""Leg order used everywhere: front-right, front-left, rear-right, rear-left."""
+
+NUM_LEGS = 4
+JOINTS_PER_LEG = 3
+NUM_LEG_JOINTS = 12
+NUM_WHEELS = 4
+NUM_ACTUATED = 16
+
+LEG_JOINT_KINDS: tuple[str, ...] = ("hip", "thigh", "calf")
+LEG_JOINT_NAMES: tuple[str, ...] = tuple(f"{leg}_{kind}_joint" for leg in LEG_NAMES for kind in LEG_JOINT_KINDS)
+WHEEL_JOINT_NAMES: tuple[str, ...] = tuple(f"{leg}_wheel_joint" for leg in LEG_NAMES)
+ACTUATED_JOINT_NAMES: tuple[str, ...] = LEG_JOINT_NAMES + WHEEL_JOINT_NAMES
+"""The 16 actuated joints in project order: 12 leg joints (leg-major), then 4 wheels."""
+
+WHEEL_INDICES: tuple[int, ...] = (12, 13, 14, 15)
+"""Indices of the wheel joints inside the 16 actuated joints."""
+
+# Sign of each leg's side: +1 for a left leg (y > 0), -1 for a right leg; +1 for front (x > 0), -1 for rear.
+LEG_SIDE_SIGN: tuple[float, ...] = (-1.0, 1.0, -1.0, 1.0)
+LEG_FRONT_SIGN: tuple[float, ...] = (1.0, 1.0, -1.0, -1.0)
+
+# --- Kinematics (metres), FACTS.md "Frames and kinematics" -------------------------------------------------------
+HIP_OFFSET_X = 0.1881
+"""|x| of the hip (abduction) joint origin in the trunk frame [m] (go1.xml)."""
+HIP_OFFSET_Y = 0.04675
+"""|y| of the hip joint origin in the trunk frame [m] (go1.xml)."""
+THIGH_OFFSET_Y = 0.08
+"""|y| of the thigh joint origin from the hip body [m]; left +, right - (go1.xml)."""
+THIGH_LENGTH = 0.213
+"""Knee origin from the thigh joint, along -z [m] (go1.xml)."""
+CALF_LENGTH = 0.213
+"""Foot centre from the knee, along -z [m] (go1.xml); the wheel replaces the foot."""
+
+# --- Wheel (SIMULATION_FACTS.md, public wheeled-Go1 harness) ------------------------------------------------------
+WHEEL_RADIUS = 0.075
+"""Wheel (tyre) radius [m]."""
+WHEEL_WIDTH = 0.03
+"""Wheel width [m]."""
+WHEEL_MASS = 0.2023
+"""Wheel mass [kg]."""
+WHEEL_MOTOR_MASS = 0.514
+"""Wheel-motor link fixed at the calf end [kg] (harness value; AK80-6 alone is 0.485 kg)."""
+WHEEL_CENTER_IN_CALF = (-0.015, 0.0245, -0.233)
+"""Wheel centre in the calf frame [m] for a left leg; the y sign flips on a right leg (harness)."""
+WHEEL_TORQUE_LIMIT = 6.0
+"""Wheel torque limit [N m]: AK80-6 rated torque (peak 12 N m)."""
+WHEEL_VELOCITY_LIMIT = 38.2
+"""Wheel speed limit [rad/s]: AK80-6 top speed at 24 V (365 rpm)."""
+WHEEL_FORWARD_SIGN = 1.0
+"""Wheel joint axes point +y, so a positive wheel speed rolls the robot forward (+x).
+
+The paper's Eq. (3) carries a leading minus because its wheel axes point the other way.
+"""
+
+# --- Joint limits and torque limits, FACTS.md "Joint limits and actuators" ----------------------------------------
+HIP_RANGE = (-0.863, 0.863)
+THIGH_RANGE = (-0.686, 4.501)
+CALF_RANGE = (-2.818, -0.888)
+HIP_TORQUE_LIMIT = 23.7
+THIGH_TORQUE_LIMIT = 23.7
+CALF_TORQUE_LIMIT = 35.55
+HIP_VELOCITY_LIMIT = 30.1
+THIGH_VELOCITY_LIMIT = 30.1
+CALF_VELOCITY_LIMIT = 20.06
+
+LEG_JOINT_RANGES: tuple[tuple[float, float], ...] = (HIP_RANGE, THIGH_RANGE, CALF_RANGE) * NUM_LEGS
+TORQUE_LIMITS: tuple[float, ...] = (HIP_TORQUE_LIMIT, THIGH_TORQUE_LIMIT, CALF_TORQUE_LIMIT) * NUM_LEGS + (
+    WHEEL_TORQUE_LIMIT,
+) * NUM_WHEELS
+"""Torque limit of each actuated joint, project order [N m]."""
+
+# --- Default pose ----------------------------------------------------------------------------------------------------
+NOMINAL_BODY_HEIGHT = 0.2
+"""h_b: wheel centre below the hip joint in stance [m] (authors' public harness: body height 0.2 m)."""
+NOMINAL_SWING_HEIGHT = 0.1
+"""h_s: swing clearance of the wheel centre [m] (authors' public harness: clearance 0.1 m)."""
+DEFAULT_LEG_ANGLES = (0.0, 1.20022516, -2.28116416)
+"""Default (hip, thigh, calf) of every leg [rad]: the leg IK of the nominal stance, wheel centre at
+(0, side * (THIGH_OFFSET_Y + 0.0245), -NOMINAL_BODY_HEIGHT) in the hip frame (checked in tests). The trunk then
+stands about h_b + R_wheel = 0.275 m above flat ground."""
+DEFAULT_BASE_HEIGHT = NOMINAL_BODY_HEIGHT + WHEEL_RADIUS
+"""Trunk-origin height of the default pose on flat ground [m]."""
+DEFAULT_JOINT_POS: tuple[float, ...] = DEFAULT_LEG_ANGLES * NUM_LEGS + (0.0,) * NUM_WHEELS
+
+# --- Bodies used for contact / collision reporting ---------------------------------------------------------------
+TRUNK_BODY = "trunk"
+COLLISION_BODY_NAMES: tuple[str, ...] = ("trunk",) + tuple(
+    f"{leg}_{part}" for leg in LEG_NAMES for part in ("thigh", "calf")
+)
+"""Bodies whose ground contact counts as a collision (reward) - index 0, the trunk, also terminates an episode."""
+WHEEL_BODY_NAMES: tuple[str, ...] = tuple(f"{leg}_wheel" for leg in LEG_NAMES)
+
+ASSET_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "assets", "usd")
+WHEELED_GO1_USD = os.path.join(ASSET_DIR, "wheeled_go1.usda")
+"""The committed wheeled Go1 asset, written by ``tools/build_wheeled_go1.py``."""
