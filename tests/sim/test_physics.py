@@ -1,0 +1,138 @@
+"""Physics outcomes of the simulation core on the CPU path: standing, driving, turning, power, contacts, reset."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from wqwarp import constants as C
+from wqwarp.sim.backend import SimConfig, Simulator
+
+
+@pytest.fixture(scope="module")
+def sim(device):
+    return Simulator(SimConfig(num_envs=3, device=device))
+
+
+def _run(sim, seconds, record=lambda s: None):
+    out = []
+    for _ in range(int(round(seconds / sim.policy_dt))):
+        sim.step()
+        out.append(record(sim))
+    return out
+
+
+def _base_vel_body(sim):
+    """Base linear velocity in the base frame (from Newton's world-frame COM velocity; COM offset is tiny)."""
+    q = sim.joint_q.numpy()[:, 3:7]
+    v = sim.joint_qd.numpy()[:, 0:3]
+    x, y, z, w = q.T
+    rot = np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+    ], 1)  # fmt: skip
+    return np.einsum("nji,nj->ni", rot, v)
+
+
+def test_stands_five_seconds_in_default_pose(sim):
+    sim.reset(np.arange(sim.num_envs))
+    sim.wheel_qd_target.zero_()
+    z = np.array(_run(sim, 5.0, lambda s: s.joint_q.numpy()[:, 2].copy()))
+    assert np.all(np.isfinite(z))
+    settled = z[int(0.5 / sim.policy_dt) :]
+    assert np.all(np.abs(settled - settled.mean(0)) < 0.02), (settled.min(0), settled.max(0))
+    assert np.all(settled > 0.18)  # standing on its wheels, not lying on the trunk
+    assert not sim.body_collision.numpy().any()
+    assert np.all(sim.wheel_contact.numpy() == 1)
+    # All four wheels carry the weight: sum of normal forces ~ m g.
+    total = sim.wheel_force.numpy().sum(1)
+    assert total == pytest.approx(np.full(sim.num_envs, sim.layout.total_mass * 9.81), rel=0.15)
+
+
+def test_still_robot_has_near_zero_p_cost(sim):
+    sim.reset(np.arange(sim.num_envs))
+    sim.wheel_qd_target.zero_()
+    p = np.array(_run(sim, 3.0, lambda s: s.p_cost.numpy().copy()))
+    assert np.all(p >= 0.0)
+    # The legs settle within ~2 s (Kp 40, Kd 1); afterwards only sub-watt holding jitter remains.
+    assert np.all(p[-25:].mean(0) < 1.0), p[-25:].mean(0)  # [W]
+
+
+def test_wheels_drive_the_base_at_the_commanded_speed(sim):
+    sim.reset(np.arange(sim.num_envs))
+    speed = 0.5
+    sim.wheel_qd_target.fill_(C.WHEEL_FORWARD_SIGN * speed / C.WHEEL_RADIUS)
+    p_cost = _run(sim, 2.0, lambda s: s.p_cost.numpy().copy())
+    vx = _base_vel_body(sim)[:, 0]
+    assert vx == pytest.approx(np.full(sim.num_envs, speed), rel=0.10)
+    # Driving costs power (accelerating the wheels and holding the legs): clearly above the still robot's.
+    assert np.all(np.mean(p_cost[:25], axis=0) > 10.0)  # ~25 W measured in the first 0.5 s
+    x = sim.joint_q.numpy()[:, 0]
+    assert np.all(x > 0.6)  # moved forward ~0.8 m in 2 s
+
+
+def test_opposite_wheel_speeds_turn_with_the_expected_sign(sim):
+    sim.reset(np.arange(sim.num_envs))
+    w = 4.0  # [rad/s]
+    side = np.asarray(C.LEG_SIDE_SIGN, np.float32)  # +1 left
+    # Left wheels forward, right wheels backward -> yaw to the right (negative yaw rate about +z).
+    sim.wheel_qd_target.assign(np.tile(C.WHEEL_FORWARD_SIGN * w * side, (sim.num_envs, 1)))
+    _run(sim, 1.5)
+    yaw_rate = sim.joint_qd.numpy()[:, 5]
+    assert np.all(yaw_rate < -0.2), yaw_rate
+    sim.wheel_qd_target.assign(np.tile(-C.WHEEL_FORWARD_SIGN * w * side, (sim.num_envs, 1)))
+    _run(sim, 1.5)
+    assert np.all(sim.joint_qd.numpy()[:, 5] > 0.2)
+
+
+def test_trunk_on_the_ground_is_flagged_as_collision(sim):
+    lay = sim.layout
+    q = np.tile(sim._default_q, (sim.num_envs, 1))
+    q[:, 2] = 0.06  # trunk box half-height is 0.057: lying on the ground, upside down so the legs point up
+    q[:, 3:7] = (1.0, 0.0, 0.0, 0.0)  # 180 deg about x (xyzw)
+    sim.reset(np.arange(sim.num_envs), q, np.zeros((sim.num_envs, lay.dofs_per_world), np.float32))
+    sim.wheel_qd_target.zero_()
+    _run(sim, 0.2)
+    assert np.all(sim.body_collision.numpy()[:, 0] == 1)
+    assert not sim.wheel_contact.numpy().any()
+
+
+def test_reset_sets_the_given_state_of_only_those_robots(sim):
+    sim.reset(np.arange(sim.num_envs))
+    _run(sim, 0.1)
+    before = sim.joint_q.numpy().copy()
+    q = sim._default_q.copy()
+    q[0:3] = (1.0, -2.0, 0.4)
+    qd = np.zeros(sim.layout.dofs_per_world, np.float32)
+    qd[0] = 0.3
+    sim.reset([1], q[None], qd[None])
+    np.testing.assert_allclose(sim.joint_q.numpy()[1], q, atol=1e-6)
+    np.testing.assert_allclose(sim.joint_q.numpy()[[0, 2]], before[[0, 2]])
+    np.testing.assert_allclose(sim.body_q.numpy()[1, sim.layout.trunk_body][:3], (1.0, -2.0, 0.4), atol=1e-6)
+    sim.step()  # the physics continues from the reset state (falling from 0.4 m, moving +x)
+    assert sim.joint_q.numpy()[1, 0] > 1.0 and sim.joint_q.numpy()[1, 2] < 0.4
+    with pytest.raises(IndexError):
+        sim.reset([sim.num_envs])
+
+
+def test_torch_views_share_memory(sim):
+    views = sim.torch_views()
+    assert views["joint_q"].shape == (sim.num_envs, 23)
+    assert views["body_q"].shape == (sim.num_envs, sim.layout.bodies_per_world, 7)
+    views["wheel_qd_target"][:] = 1.25
+    assert np.all(sim.wheel_qd_target.numpy() == 1.25)
+
+
+def test_paper_timestep_runs():
+    sim = Simulator(SimConfig(num_envs=2, dt=0.001, decimation=20))
+    assert sim.policy_dt == pytest.approx(0.02)
+    z = np.array(_run(sim, 1.0, lambda s: s.joint_q.numpy()[:, 2].copy()))
+    assert np.all(np.isfinite(z)) and np.all(z[-1] > 0.18)
+
+
+def test_bad_config_is_rejected():
+    with pytest.raises(ValueError, match="backend"):
+        SimConfig(backend="physx").validate()
+    with pytest.raises(ValueError, match="num_envs"):
+        SimConfig(num_envs=0).validate()
