@@ -96,3 +96,19 @@ def newton_state_to_mujoco(
         mj_state[world, b + 3 + k] = wp.float64(w_b[k])
     for k in range(6, nv):
         mj_state[world, b + k] = wp.float64(joint_qd[world, k])
+
+
+@wp.kernel
+def gather_actuated(
+    joint_q: wp.array2d(dtype=wp.float32),
+    joint_qd: wp.array2d(dtype=wp.float32),
+    coord_index: wp.array(dtype=wp.int32),
+    dof_index: wp.array(dtype=wp.int32),
+    # outputs
+    actuated_q: wp.array2d(dtype=wp.float32),
+    actuated_qd: wp.array2d(dtype=wp.float32),
+):
+    """Copy the 16 actuated joints' positions [rad] and velocities [rad/s] into project order, (N, 16) each."""
+    world, j = wp.tid()
+    actuated_q[world, j] = joint_q[world, coord_index[j]]
+    actuated_qd[world, j] = joint_qd[world, dof_index[j]]

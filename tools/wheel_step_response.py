@@ -21,7 +21,7 @@ def run(kp: float, ki: float, kd: float, speed: float, seconds: float, i_limit: 
     import warp as wp
 
     from wqwarp import constants as C
-    from wqwarp.sim.backend import Simulator, SimConfig
+    from wqwarp.sim.backend import SimConfig, Simulator
 
     wp.config.quiet = True
     sim = Simulator(SimConfig(num_envs=1, wheel_kp=kp, wheel_ki=ki, wheel_kd=kd, wheel_i_limit=i_limit))

@@ -17,7 +17,7 @@ from wqwarp import constants as C
 
 @dataclass(frozen=True)
 class RobotLayout:
-    """Index maps of one robot (one world) inside a Newton model. All indices are relative to the world's first entry."""
+    """Index maps of one robot (one world) inside a Newton model, relative to the world's first entry."""
 
     coords_per_world: int
     """Length of one world's ``joint_q`` row (7 free-joint coordinates + 16 revolute)."""

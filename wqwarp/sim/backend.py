@@ -22,7 +22,7 @@ from __future__ import annotations
 import os
 import tempfile
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import warp as wp
@@ -31,7 +31,7 @@ from wqwarp import constants as C
 from wqwarp import robot
 from wqwarp.kernels import actuation, power
 from wqwarp.kernels.contacts import accumulate_newton_contacts, contacts_from_sensordata
-from wqwarp.kernels.state import mujoco_state_to_newton, newton_state_to_mujoco
+from wqwarp.kernels.state import gather_actuated, mujoco_state_to_newton, newton_state_to_mujoco
 
 BACKENDS = ("auto", "mujoco_cpu", "mujoco_warp")
 
@@ -112,7 +112,8 @@ class _Buffers:
     wheel_force: wp.array
     wheel_contact: wp.array  # int32
     body_collision: wp.array  # int32
-    extra: dict = field(default_factory=dict)
+    actuated_q: wp.array
+    actuated_qd: wp.array
 
 
 @wp.kernel
@@ -128,7 +129,8 @@ class Simulator:
     ``motor_strength`` (N, 16) [-]. Outputs after :meth:`step`: ``joint_q`` (N, 23), ``joint_qd`` (N, 22),
     ``body_q`` (N, 21) transforms, ``body_qd`` (N, 21) spatial vectors, ``joint_torque`` (N, 16) [N m] (last
     substep), ``p_cost`` / ``p_mech`` / ``p_joule`` (N,) [W] averaged over the substeps, ``wheel_force`` (N, 4) [N],
-    ``wheel_contact`` (N, 4) and ``body_collision`` (N, 9) int32 flags.
+    ``wheel_contact`` (N, 4) and ``body_collision`` (N, 9) int32 flags, ``actuated_q`` / ``actuated_qd`` (N, 16) the
+    actuated joints in project order (``wqwarp.constants``).
     """
 
     def __init__(self, cfg: SimConfig):
@@ -170,6 +172,8 @@ class Simulator:
                 wheel_force=wp.zeros((n, 4), dtype=f32),
                 wheel_contact=wp.zeros((n, 4), dtype=wp.int32),
                 body_collision=wp.zeros((n, len(C.COLLISION_BODY_NAMES)), dtype=wp.int32),
+                actuated_q=wp.zeros((n, 16), dtype=f32),
+                actuated_qd=wp.zeros((n, 16), dtype=f32),
             )
             self._default_q = robot.default_joint_q(lay)
             if self.backend == "mujoco_cpu":
@@ -198,8 +202,7 @@ class Simulator:
         out["body_q"] = wp.to_torch(self.body_q)  # (N, B, 7): position, quaternion xyzw
         out["body_qd"] = wp.to_torch(self.body_qd)  # (N, B, 6): linear, angular (world frame)
         for k in self.buf.__dataclass_fields__:
-            if k != "extra":
-                out[k] = wp.to_torch(getattr(self.buf, k))
+            out[k] = wp.to_torch(getattr(self.buf, k))
         return out
 
     # --- stepping ---------------------------------------------------------------------------------------------
@@ -217,18 +220,27 @@ class Simulator:
             weight=1.0 / cfg.decimation, device=self.device,
         )  # fmt: skip
 
-    def step(self) -> None:
-        """Advance one policy step: ``decimation`` substeps of actuation + physics, then body poses and contacts."""
+    def step(self, actuate: bool = True) -> None:
+        """Advance one policy step: ``decimation`` substeps of actuation + physics, then body poses and contacts.
+
+        ``actuate=False`` skips the actuation and power kernels and keeps the last joint torques (benchmarks)."""
         b = self.buf
         b.p_cost.zero_()
         b.p_mech.zero_()
         b.p_joule.zero_()
         if self.backend == "mujoco_cpu":
-            self._step_mujoco_cpu()
+            self._step_mujoco_cpu(actuate)
         else:
-            self._step_mujoco_warp()
+            self._step_mujoco_warp(actuate)
+        self._post_step()
+
+    def _post_step(self) -> None:
+        """Per policy step: contact flags and the project-order joint arrays."""
+        b = self.buf
         wp.launch(_wheel_contact_flags, dim=(self.num_envs, 4), inputs=[b.wheel_force, self.cfg.contact_threshold],
                   outputs=[b.wheel_contact], device=self.device)  # fmt: skip
+        wp.launch(gather_actuated, dim=(self.num_envs, 16), inputs=[self.joint_q, self.joint_qd, self.coord_index,
+                  self.dof_index], outputs=[b.actuated_q, b.actuated_qd], device=self.device)  # fmt: skip
 
     def reset(self, env_ids, joint_q: np.ndarray | None = None, joint_qd: np.ndarray | None = None) -> None:
         """Set robots ``env_ids`` to the given Newton coordinates ((k, 23) / (k, 22); default pose and rest if
@@ -270,6 +282,7 @@ class Simulator:
         import newton
 
         newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state)
+        self._post_step()
 
     # --- mujoco_cpu ---------------------------------------------------------------------------------------------
     def _init_mujoco_cpu(self) -> None:
@@ -317,13 +330,16 @@ class Simulator:
         self._body_found_wp = wp.array(self._body_found_col, dtype=wp.int32)
         self._qfrc_spec = mujoco.mjtState.mjSTATE_QFRC_APPLIED.value
 
-    def _step_mujoco_cpu(self) -> None:
+    def _step_mujoco_cpu(self, actuate: bool) -> None:
         for _ in range(self.cfg.decimation):
-            self._actuate()
+            if actuate:
+                self._actuate()
             self._mj_control[:, 0, :] = self._joint_f_np
             src, dst = self._mj_state[self._parity], self._mj_state[1 - self._parity]
-            self._rollout.rollout(self._mj_models, self._mj_datas, src[:, 0, :], self._mj_control, control_spec=self._qfrc_spec,
-                                  nstep=1, state=dst, sensordata=self._sensordata, skip_checks=True)  # fmt: skip
+            self._rollout.rollout(
+                self._mj_models, self._mj_datas, src[:, 0, :], self._mj_control, control_spec=self._qfrc_spec,
+                nstep=1, state=dst, sensordata=self._sensordata, skip_checks=True,
+            )  # fmt: skip
             self._parity = 1 - self._parity
             wp.launch(mujoco_state_to_newton, dim=self.num_envs, inputs=[self._mj_state_wp[self._parity],
                       self._mj_qpos_start, self._root_com], outputs=[self.joint_q, self.joint_qd],
@@ -349,7 +365,7 @@ class Simulator:
         self.contacts = newton.Contacts(self.solver.get_max_contact_count(), 0, device=self.device)
         kinds = {newton.solvers.SolverBase.ObservableKind.CONTACT_F}
         self.observables = self.solver.observables(kinds, contacts=self.contacts)
-        lay, n = self.layout, self.num_envs
+        lay = self.layout
         shape_body = self.model.shape_body.numpy()
         shape_world = self.model.shape_world.numpy()
         wheel_slot = np.full(self.model.shape_count, -1, np.int32)
@@ -374,9 +390,10 @@ class Simulator:
         self._graph = None
         self._use_graph = cfg.cuda_graph and self.device.is_cuda
 
-    def _decimation_loop_warp(self) -> None:
+    def _decimation_loop_warp(self, actuate: bool = True) -> None:
         for _ in range(self.cfg.decimation):
-            self._actuate()
+            if actuate:
+                self._actuate()
             self.solver.step(
                 self.state, self.state, self.control, self.contacts, self.cfg.dt, observables=self.observables
             )
@@ -390,9 +407,9 @@ class Simulator:
                           self._wheel_slot, self._body_slot, self._ground_shape],
                   outputs=[b.wheel_force, b.body_collision], device=self.device)  # fmt: skip
 
-    def _step_mujoco_warp(self) -> None:
-        if not self._use_graph:
-            self._decimation_loop_warp()
+    def _step_mujoco_warp(self, actuate: bool) -> None:
+        if not (self._use_graph and actuate):
+            self._decimation_loop_warp(actuate)
             return
         if self._graph is None:
             self._decimation_loop_warp()  # warm-up: compiles kernels and allocates outside the capture
@@ -429,8 +446,10 @@ def _add_contact_sensors(spec, mujoco) -> tuple[list[int], list[int]]:
         wheel_cols.append(col)
         col += 4
     for name in C.COLLISION_BODY_NAMES:
-        s = spec.add_sensor(type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mujoco.mjtObj.mjOBJ_BODY,
-                            objname=f"_wheeled_go1_{name}", reftype=mujoco.mjtObj.mjOBJ_GEOM, refname=ground)  # fmt: skip
+        s = spec.add_sensor(
+            type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mujoco.mjtObj.mjOBJ_BODY, objname=f"_wheeled_go1_{name}",
+            reftype=mujoco.mjtObj.mjOBJ_GEOM, refname=ground,
+        )  # fmt: skip
         s.intprm[0:3] = [found, 0, 1]
         s.name = f"contact_{name}"
         body_cols.append(col)

@@ -1,0 +1,148 @@
+"""Benchmark the simulation core against raw ``mujoco.rollout`` on the same MjModel, in the same process.
+
+Usage::
+
+    python tools/bench.py [--sizes 1,64,256,1024] [--device cpu|cuda:0] [--backend auto|mujoco_cpu|mujoco_warp]
+                          [--seconds 2] [--json PATH]
+
+For each robot count N it reports:
+    setup_s              building the Newton model and the backend (Simulator construction) [s]
+    backend_steps_per_s  robot physics steps per second of the backend, actuation kernels off (torques held) and
+                         robots reset every 25 policy steps [robot-steps/s]
+    raw_steps_per_s      ``mujoco.rollout`` on all cores, N independent states, ``decimation`` steps per call,
+                         constant holding torques [robot-steps/s]
+    ratio                backend_steps_per_s / raw_steps_per_s
+    policy_steps_per_s   full policy steps (actuation + power kernels every substep, physics, FK, contacts)
+                         [robot-policy-steps/s]; compare with raw_steps_per_s / decimation
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+
+def _time(fn, seconds: float) -> tuple[float, int]:
+    fn()  # warm-up (compiles, captures)
+    n, t0 = 0, time.perf_counter()
+    while True:
+        fn()
+        n += 1
+        dt = time.perf_counter() - t0
+        if dt >= seconds and n >= 3:
+            return dt, n
+
+
+def bench_size(n: int, device: str, backend: str, seconds: float) -> dict:
+    import mujoco
+    from mujoco import rollout
+
+    from wqwarp.sim.backend import SimConfig, Simulator
+
+    t0 = time.perf_counter()
+    sim = Simulator(SimConfig(num_envs=n, device=device, backend=backend))
+    setup = time.perf_counter() - t0
+    dec = sim.cfg.decimation
+    for _ in range(25):  # settle into the standing pose
+        sim.step()
+
+    chunk = 25  # policy steps per timed call; robots are reset after each so none drifts or falls for long
+
+    def run(actuate: bool):
+        for _ in range(chunk):
+            sim.step(actuate=actuate)
+        sim.reset(all_ids)
+
+    all_ids = np.arange(n)
+    dt, k = _time(lambda: run(False), seconds)
+    backend_sps = n * dec * chunk * k / dt
+    dt, k = _time(lambda: run(True), seconds)
+    policy_sps = n * chunk * k / dt
+
+    # Raw baseline on the CPU MjModel of this robot (the CPU backend's, or a fresh conversion for mujoco_warp).
+    if sim.backend == "mujoco_cpu":
+        m, spec_state = sim.mj_model, sim._state_spec
+        state0 = sim._mj_state[sim._parity][:, 0, :].copy()
+    else:
+        cpu = Simulator(SimConfig(num_envs=1, device="cpu", backend="mujoco_cpu"))
+        for _ in range(25):
+            cpu.step()
+        m, spec_state = cpu.mj_model, cpu._state_spec
+        state0 = np.repeat(cpu._mj_state[cpu._parity][:, 0, :], n, axis=0)
+    hold = np.repeat(sim.joint_f.numpy()[:1], n, axis=0)  # constant holding torques (standing robot)
+    nthread = os.cpu_count() or 1
+    control = np.repeat(hold[:, None, :], dec, axis=1).astype(np.float64)
+    out = np.zeros((n, dec, state0.shape[1]))
+    datas = [mujoco.MjData(m) for _ in range(min(nthread, n))]
+    qfrc = mujoco.mjtState.mjSTATE_QFRC_APPLIED.value
+    with rollout.Rollout(nthread=len(datas) if len(datas) > 1 else 0) as r:
+        models = [m] * n
+
+        def raw():
+            r.rollout(models, datas, state0, control, control_spec=qfrc, nstep=dec, state=out, skip_checks=True)
+
+        dt, k = _time(raw, seconds)
+    del spec_state
+    raw_sps = n * dec * k / dt
+    return {
+        "n": n,
+        "backend": sim.backend,
+        "setup_s": round(setup, 3),
+        "backend_steps_per_s": round(backend_sps, 1),
+        "raw_steps_per_s": round(raw_sps, 1),
+        "ratio": round(backend_sps / raw_sps, 3),
+        "policy_steps_per_s": round(policy_sps, 1),
+        "policy_vs_raw": round(policy_sps * dec / raw_sps, 3),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 2)[2],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap.add_argument("--sizes", default="1,64,256,1024", help="comma-separated robot counts (default 1,64,256,1024)")
+    ap.add_argument("--device", default="cpu", help="Warp device: cpu or cuda:N (default cpu)")
+    ap.add_argument("--backend", default="auto", help="auto | mujoco_cpu | mujoco_warp (default auto)")
+    ap.add_argument("--seconds", type=float, default=2.0, help="minimum timed wall time per measurement (default 2)")
+    ap.add_argument("--json", default=None, help="also write the results as JSON to this path")
+    args = ap.parse_args(argv)
+    try:
+        sizes = [int(s) for s in args.sizes.split(",") if s.strip()]
+        if not sizes or min(sizes) < 1:
+            raise ValueError
+    except ValueError:
+        print(f"error: --sizes must be positive integers like 1,64,256, got {args.sizes!r}", file=sys.stderr)
+        return 2
+    if args.json and not os.path.isdir(os.path.dirname(os.path.abspath(args.json))):
+        print(f"error: directory of --json {args.json!r} does not exist", file=sys.stderr)
+        return 2
+    import warp as wp
+
+    wp.config.quiet = True
+    dev = wp.get_device(args.device)
+    desc = dev.name if dev.is_cuda else f"cpu ({os.cpu_count()} cores)"
+    results = []
+    header = f"{'N':>6} {'backend':>12} {'setup[s]':>9} {'backend st/s':>13} {'raw st/s':>11} {'ratio':>6} " \
+             f"{'policy st/s':>12} {'policy/raw':>10}"  # fmt: skip
+    print(f"device: {desc}\n{header}", flush=True)
+    for n in sizes:
+        r = bench_size(n, args.device, args.backend, args.seconds)
+        results.append(r)
+        print(f"{r['n']:>6} {r['backend']:>12} {r['setup_s']:>9.2f} {r['backend_steps_per_s']:>13.0f} "
+              f"{r['raw_steps_per_s']:>11.0f} {r['ratio']:>6.2f} {r['policy_steps_per_s']:>12.0f} "
+              f"{r['policy_vs_raw']:>10.2f}", flush=True)  # fmt: skip
+    if args.json:
+        tmp = args.json + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump({"device": desc, "results": results}, f, indent=2)
+        os.replace(tmp, args.json)
+        print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,78 @@
+"""The augmented nominal gait for a batch of robots: gait library + phases + Eq. (1)-(3) + leg IK.
+
+:class:`NominalGait` owns the gait state and turns (command, requested gait, phase residuals, measured legs and wheel
+contacts) into nominal leg joint targets and nominal wheel velocities once per policy step. The residual-RL
+environment adds the policy's residuals on top; the gait trace tool and open-loop tests use it alone.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from wqwarp import constants as C
+from wqwarp.gaits import GAIT_LIBRARY, Gait, gait_index, gait_library_arrays
+from wqwarp.kernels import gait as gait_kernels
+
+
+class NominalGait:
+    """Nominal gait of ``world_count`` robots on ``device``.
+
+    Inputs per :meth:`step` (Warp arrays, float32 unless noted): ``command`` (W, 3) (v_x, v_y, w_z) in the base
+    frame [m/s, m/s, rad/s]; ``gait_id`` (W,) int32 requested gait (index into ``library``); ``phase_residual``
+    (W, 4) [cycles]. Outputs (views, updated in place): ``phase`` (W, 4), ``swing_psi`` (W, 4) (-1 in stance),
+    ``wheel_target`` (W, 4) vec3 wheel centres in the hip frames [m], ``leg_joint_target`` (W, 12) [rad],
+    ``wheel_velocity`` (W, 4) [rad/s], ``active_gait_id`` (W,) int32.
+    """
+
+    def __init__(
+        self,
+        world_count: int,
+        device: wp.context.Devicelike = "cpu",
+        library: tuple[Gait, ...] = GAIT_LIBRARY,
+        body_height: float = C.NOMINAL_BODY_HEIGHT,
+        swing_height: float = C.NOMINAL_SWING_HEIGHT,
+    ):
+        self.world_count = world_count
+        self.device = wp.get_device(device)
+        self.library = library
+        self.arrays = gait_library_arrays(self.device, library)
+        self.state = gait_kernels.NominalGaitState.allocate(world_count, self.device)
+        self.body_height = float(body_height)
+        """h_b: wheel centre below the hip in stance [m]."""
+        self.swing_height = float(swing_height)
+        """h_s: swing clearance [m]."""
+        self.command = wp.zeros((world_count, 3), dtype=wp.float32, device=self.device)
+        self.gait_id = wp.zeros(world_count, dtype=wp.int32, device=self.device)
+        self.phase_residual = wp.zeros((world_count, 4), dtype=wp.float32, device=self.device)
+
+    def __getattr__(self, name):  # expose the gait state: phase, swing_psi, wheel_target, ...
+        state = self.__dict__.get("state")
+        if state is not None and hasattr(state, name):
+            return getattr(state, name)
+        raise AttributeError(name)
+
+    def gait_ids(self, name: str) -> int:
+        """Index of gait ``name`` in this library (clear ValueError for an unknown name)."""
+        return gait_index(name, self.library)
+
+    def reset(self, env_ids, gait_id: int | np.ndarray | None = None) -> None:
+        """Restart the phases of ``env_ids`` in gait ``gait_id`` (default: the currently requested gait)."""
+        ids = np.asarray(env_ids, dtype=np.int32).reshape(-1)
+        if ids.size == 0:
+            return
+        if gait_id is not None:
+            g = self.gait_id.numpy()
+            g[ids] = gait_id
+            self.gait_id.assign(g)
+        gait_kernels.reset_nominal_gait(
+            self.state, wp.array(ids, dtype=wp.int32, device=self.device), self.gait_id, self.arrays
+        )
+
+    def step(self, leg_joint_pos: wp.array, wheel_contact: wp.array, dt: float) -> None:
+        """Advance one policy step of length ``dt`` [s] from the measured leg joints (W, 12) [rad] and wheel
+        contact flags (W, 4) int32."""
+        gait_kernels.step_nominal_gait(
+            self.state, self.arrays, self.gait_id, self.command, self.phase_residual, leg_joint_pos, wheel_contact,
+            dt, self.body_height, self.swing_height,
+        )  # fmt: skip
