@@ -260,14 +260,8 @@ class Simulator:
         if q.shape != (ids.size, lay.coords_per_world) or qd.shape != (ids.size, lay.dofs_per_world):
             raise ValueError(f"reset expects joint_q {(ids.size, lay.coords_per_world)} and joint_qd "
                              f"{(ids.size, lay.dofs_per_world)}, got {q.shape} and {qd.shape}")  # fmt: skip
-        jq, jqd = self.joint_q.numpy(), self.joint_qd.numpy()  # host copies (device views on CPU)
-        jq[ids], jqd[ids] = q, qd
+        self.set_state(ids, q, qd)
         ids_wp = wp.array(ids, dtype=wp.int32, device=self.device)
-        if self.device.is_cpu:
-            pass  # numpy() of a CPU array is a view: already written
-        else:
-            self.joint_q.assign(jq)
-            self.joint_qd.assign(jqd)
         actuation.launch_reset_wheel_pid(ids_wp, self.buf.wheel_integral, self.buf.wheel_prev_error, self.device)
         for name in ("wheel_force", "wheel_contact", "body_collision"):
             arr = getattr(self.buf, name)
@@ -275,14 +269,63 @@ class Simulator:
             host[ids] = 0
             if not self.device.is_cpu:
                 arr.assign(host)
-        if self.backend == "mujoco_cpu":
-            wp.launch(newton_state_to_mujoco, dim=ids.size, inputs=[self.joint_q, self.joint_qd, ids_wp,
-                      self._mj_qpos_start, self._root_com], outputs=[self._mj_state_wp[self._parity]],
-                      device=self.device)  # fmt: skip
         import newton
 
         newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state)
         self._post_step()
+
+    def set_state(self, env_ids, joint_q: np.ndarray, joint_qd: np.ndarray) -> None:
+        """Overwrite the coordinates of robots ``env_ids`` mid-episode (e.g. a push), keeping controller state."""
+        ids = np.asarray(env_ids, dtype=np.int32).reshape(-1)
+        if ids.size == 0:
+            return
+        jq, jqd = self.joint_q.numpy(), self.joint_qd.numpy()
+        jq[ids], jqd[ids] = joint_q, joint_qd
+        if not self.device.is_cpu:
+            self.joint_q.assign(jq)
+            self.joint_qd.assign(jqd)
+        if self.backend == "mujoco_cpu":
+            ids_wp = wp.array(ids, dtype=wp.int32, device=self.device)
+            wp.launch(newton_state_to_mujoco, dim=ids.size, inputs=[self.joint_q, self.joint_qd, ids_wp,
+                      self._mj_qpos_start, self._root_com], outputs=[self._mj_state_wp[self._parity]],
+                      device=self.device)  # fmt: skip
+
+    def set_dynamics(self, friction: np.ndarray, restitution: np.ndarray, added_mass: np.ndarray) -> None:
+        """Per-robot contact friction [-], restitution [-] and mass added to the trunk [kg], each (N,).
+
+        MuJoCo has no restitution coefficient; e is mapped to the contact damping ratio of a spring-damper whose
+        bounce has that coefficient: zeta = -ln(e) / sqrt(pi^2 + ln(e)^2) (e -> 0 gives MuJoCo's default 1).
+        """
+        n = self.num_envs
+        mu = np.broadcast_to(np.asarray(friction, np.float64), (n,))
+        e = np.clip(np.broadcast_to(np.asarray(restitution, np.float64), (n,)), 1e-6, 0.99)
+        dm = np.broadcast_to(np.asarray(added_mass, np.float64), (n,))
+        log_e = np.log(e)
+        zeta = np.minimum(-log_e / np.sqrt(np.pi**2 + log_e**2), 1.0)
+        if self.backend == "mujoco_cpu":
+            import copy
+
+            base = self.mj_model
+            trunk = base.body("_wheeled_go1_trunk").id
+            models = []
+            for i in range(n):
+                m = copy.copy(base)
+                m.geom_friction[:, 0] = mu[i]
+                m.geom_solref[:, 1] = zeta[i]
+                m.body_mass[trunk] = base.body_mass[trunk] + dm[i]
+                models.append(m)
+            self._mj_models = models
+        else:
+            mm = self.solver.mjw_model
+            fr = mm.geom_friction.numpy()
+            fr[:, :, 0] = mu[:, None]
+            mm.geom_friction.assign(fr)
+            sr = mm.geom_solref.numpy()
+            sr[:, :, 1] = zeta[:, None]
+            mm.geom_solref.assign(sr)
+            bm = mm.body_mass.numpy()
+            bm[:, 1] = self._trunk_mass + dm  # MuJoCo body 1 is the trunk (body 0 is the world)
+            mm.body_mass.assign(bm)
 
     # --- mujoco_cpu ---------------------------------------------------------------------------------------------
     def _init_mujoco_cpu(self) -> None:
@@ -389,6 +432,7 @@ class Simulator:
         self._body_slot = wp.array(body_slot, dtype=wp.int32)
         self._graph = None
         self._use_graph = cfg.cuda_graph and self.device.is_cuda
+        self._trunk_mass = float(self.solver.mjw_model.body_mass.numpy()[0, 1])
 
     def _decimation_loop_warp(self, actuate: bool = True) -> None:
         for _ in range(self.cfg.decimation):

@@ -1,0 +1,288 @@
+"""Run a rollout of N wheeled Go1 robots and write it as a time-sampled USD stage for usdview or Omniverse.
+
+Usage::
+
+    python tools/export_usd.py --out FILE.usda|FILE.usdc|FILE.usd [--checkpoint PATH] [--preset NAME]
+        [--gait NAME] [--num-envs 4] [--seconds 10] [--command vx,vy,wz | --command-script FILE] [--fps 50]
+        [--device cpu]
+
+Without --checkpoint the robots play the nominal gait alone, open loop: legs track the nominal leg targets (PD),
+wheels the nominal wheel speeds; so the gait library can be inspected before any training. With --checkpoint a
+trained policy drives them (needs wqwarp.play).
+
+The stage: Z up, metres, /World/ground (top face at z = 0), /World/robot_{i} side by side along y (1 m apart),
+one Xform per rigid body /World/robot_{i}/{body} with the asset's shapes and its pose sampled every frame, and the
+per-frame attributes wqwarp:gait, wqwarp:activeGait, wqwarp:phase, wqwarp:command, wqwarp:baseVelocity,
+wqwarp:pCost, wqwarp:wheelContact on each /World/robot_{i} (see wqwarp/usd_export.py). Open it with
+``usdview FILE`` and scrub the timeline.
+
+Command script (--command-script): one ``t,vx,vy,wz`` line per change (commas or spaces), t in seconds from which
+that command applies, times increasing; before the first line the command is zero. Blank lines, lines starting with
+'#' and a header line ``t,vx,vy,wz`` are skipped.
+
+Exit status: 0 on success, 2 on bad input (unknown extension, missing or unwritable output directory, malformed
+command, checkpoint that does not fit); no partial output file is left behind.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import shlex
+import sys
+import time
+
+import numpy as np
+
+from wqwarp.gaits import GAIT_NAMES
+from wqwarp.usd_export import USD_EXTENSIONS, RolloutRecorder, check_output_path
+
+
+class UsageError(Exception):
+    """Bad input: printed as ``error: ...``, exit status 2."""
+
+
+class CommandSchedule:
+    """Piecewise-constant velocity command: ``times`` (K,) increasing [s], ``commands`` (K, 3) (v_x, v_y, w_z)."""
+
+    def __init__(self, times, commands):
+        self.times = np.asarray(times, np.float64).reshape(-1)
+        self.commands = np.asarray(commands, np.float32).reshape(-1, 3)
+
+    @classmethod
+    def constant(cls, command) -> CommandSchedule:
+        return cls([0.0], [command])
+
+    def at(self, t: float) -> np.ndarray:
+        """Command in force at time ``t`` [s]: that of the last entry with time <= t (zero before the first)."""
+        k = int(np.searchsorted(self.times, t + 1e-9, side="right")) - 1
+        return self.commands[k] if k >= 0 else np.zeros(3, np.float32)
+
+
+def parse_command(text: str) -> tuple[float, float, float]:
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise UsageError(f"--command {text!r}: expected three numbers vx,vy,wz (e.g. 0.5,0,0.3)")
+    return values  # type: ignore[return-value]
+
+
+def parse_command_script(path: str) -> CommandSchedule:
+    """Read a ``t,vx,vy,wz`` file; UsageError naming the file and line for anything malformed."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            lines = f.read().splitlines()
+    except (OSError, UnicodeDecodeError) as e:
+        raise UsageError(f"cannot read --command-script {path!r}: {e}") from None
+    times, commands = [], []
+    for lineno, raw in enumerate(lines, 1):
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        fields = [p for p in line.replace(",", " ").split()]
+        if [p.lower() for p in fields] == ["t", "vx", "vy", "wz"]:
+            continue
+        where = f"{path}:{lineno}: {raw.strip()!r}"
+        try:
+            values = [float(p) for p in fields]
+        except ValueError:
+            raise UsageError(f"malformed command script line {where}: expected numbers t,vx,vy,wz") from None
+        if len(values) != 4:
+            raise UsageError(f"malformed command script line {where}: expected 4 values t,vx,vy,wz, got {len(values)}")
+        if not all(math.isfinite(v) for v in values):
+            raise UsageError(f"malformed command script line {where}: values must be finite")
+        if values[0] < 0 or (times and values[0] <= times[-1]):
+            raise UsageError(f"malformed command script line {where}: times must be >= 0 and increasing")
+        times.append(values[0])
+        commands.append(values[1:])
+    if not times:
+        raise UsageError(f"command script {path!r} holds no command lines (t,vx,vy,wz)")
+    return CommandSchedule(times, commands)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    doc = __doc__.split("\n\n")
+    ap = argparse.ArgumentParser(
+        prog="tools/export_usd.py",
+        description=doc[0],
+        epilog="\n\n".join(doc[2:]),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    ap.add_argument("--out", required=True, help=f"output USD file; extension one of {', '.join(USD_EXTENSIONS)} "
+                    "(.usda text, .usdc / .usd binary crate); its directory must exist")  # fmt: skip
+    ap.add_argument("--checkpoint", default=None, help="trained policy checkpoint to play (default: none, the "
+                    "nominal gait alone, open loop)")  # fmt: skip
+    ap.add_argument("--preset", default=None, help="config preset the checkpoint was trained with (wqwarp.config "
+                    "presets, e.g. ours); only with --checkpoint")  # fmt: skip
+    ap.add_argument("--gait", default="trotting", choices=GAIT_NAMES, help="nominal gait played without a "
+                    "checkpoint (default trotting)")  # fmt: skip
+    ap.add_argument("--num-envs", type=int, default=4, help="number of robots, laid out side by side (default 4)")
+    ap.add_argument("--seconds", type=float, default=10.0, help="simulated time [s] (default 10)")
+    cmd = ap.add_mutually_exclusive_group()
+    cmd.add_argument("--command", default=None, help="constant velocity command vx,vy,wz in the base frame "
+                     "[m/s, m/s, rad/s] for every robot (default 0,0,0; write a negative first value as "
+                     "--command=-0.5,0,0)")  # fmt: skip
+    cmd.add_argument("--command-script", default=None, help="file of 't,vx,vy,wz' lines: the command from time t "
+                     "[s] on (see below)")  # fmt: skip
+    ap.add_argument("--fps", type=float, default=50.0, help="frames per second of the stage (default 50 = every "
+                    "policy step; other rates show the nearest policy step)")  # fmt: skip
+    ap.add_argument("--device", default="cpu", help="Warp device for the simulation: cpu (default) or cuda:N")
+    return ap
+
+
+def validate(args) -> CommandSchedule:
+    problem = check_output_path(args.out)
+    if problem:
+        raise UsageError(problem)
+    if args.num_envs < 1:
+        raise UsageError(f"--num-envs must be a positive integer, got {args.num_envs}")
+    for name in ("seconds", "fps"):
+        v = getattr(args, name)
+        if not (math.isfinite(v) and v > 0):
+            raise UsageError(f"--{name} must be a positive number, got {v}")
+    if args.preset is not None and args.checkpoint is None:
+        raise UsageError("--preset only applies with --checkpoint")
+    if args.checkpoint is not None and not os.path.isfile(args.checkpoint):
+        raise UsageError(f"checkpoint {args.checkpoint!r} does not exist")
+    if args.command_script is not None:
+        return parse_command_script(args.command_script)
+    return CommandSchedule.constant(parse_command(args.command) if args.command is not None else (0.0, 0.0, 0.0))
+
+
+class Progress:
+    """One line per simulated second (at most ~20 lines), with the wall time so far."""
+
+    def __init__(self, steps: int, policy_dt: float):
+        self.steps, self.dt, self.t0 = steps, policy_dt, time.perf_counter()
+        seconds = steps * policy_dt
+        self.every = max(1, int(round(max(1.0, seconds / 20) / policy_dt)))
+
+    def __call__(self, step: int) -> None:
+        if step % self.every == 0 or step == self.steps:
+            pct = 100.0 * step / self.steps
+            wall = time.perf_counter() - self.t0
+            print(f"  t = {step * self.dt:6.2f} s  ({pct:5.1f} %)  wall {wall:6.1f} s", flush=True)
+
+
+def run_nominal(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict]:
+    """The nominal gait alone, open loop, for ``args.seconds``; returns the filled recorder and metadata."""
+    import warp as wp
+
+    from wqwarp.nominal import NominalGait
+    from wqwarp.sim.backend import SimConfig, Simulator
+
+    n, device = args.num_envs, args.device
+    sim = Simulator(SimConfig(num_envs=n, device=device))
+    ng = NominalGait(n, device)
+    ng.reset(np.arange(n), ng.gait_ids(args.gait))
+    rec = RolloutRecorder.for_simulator(sim, args.seconds, args.fps)
+    dt = sim.policy_dt
+    current = None
+
+    def set_command(t: float) -> None:
+        nonlocal current
+        c = schedule.at(t)
+        if current is None or not np.array_equal(c, current):
+            ng.command.assign(np.tile(c, (n, 1)))
+            current = c
+
+    set_command(0.0)
+    rec.capture(0, sim, ng)
+    progress = Progress(rec.num_steps, dt)
+    for step in range(1, rec.num_steps + 1):
+        set_command((step - 1) * dt)  # the command in force during this step
+        ng.step(sim.actuated_q[:, :12], sim.wheel_contact, dt)
+        wp.copy(sim.leg_q_target, ng.leg_joint_target)
+        wp.copy(sim.wheel_qd_target, ng.wheel_velocity)
+        sim.step()
+        rec.capture(step, sim, ng)
+        progress(step)
+    return rec, {"mode": "nominal", "gait": args.gait, "device": str(device)}
+
+
+# --- checkpoint seam --------------------------------------------------------------------------------------------
+# make_policy_runner(checkpoint, preset, num_envs, device) (wqwarp.play) is expected to return an object with
+#   .env            the environment: .sim (wqwarp.sim.backend.Simulator), .nominal (wqwarp.nominal.NominalGait),
+#                   .reset() -> observations (or a tuple whose first item is them), .step(actions) -> observations
+#                   (or a tuple whose first item is them), one policy step each; optionally .set_command((N, 3))
+#                   to hold the velocity commands fixed (otherwise the env's own commands are recorded);
+#   .policy(obs)    the trained policy: observations -> actions (inference, no gradients).
+# It must raise ValueError (or KeyError) for a checkpoint that does not fit the preset's observation layout; the
+# message is shown to the user with exit status 2.
+def run_policy(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict]:
+    """A trained policy for ``args.seconds``; returns the filled recorder and metadata."""
+    try:
+        from wqwarp.play import make_policy_runner
+    except ImportError as e:
+        raise UsageError(f"--checkpoint needs wqwarp.play.make_policy_runner, which is not available ({e})") from None
+    try:
+        runner = make_policy_runner(args.checkpoint, args.preset, args.num_envs, args.device)
+    except (ValueError, KeyError) as e:
+        raise UsageError(f"checkpoint {args.checkpoint!r} does not fit preset {args.preset!r}: {e}") from None
+    env = runner.env
+    sim = env.sim
+    n = sim.num_envs
+    rec = RolloutRecorder.for_simulator(sim, args.seconds, args.fps)
+    dt = sim.policy_dt
+    fixed = hasattr(env, "set_command") and (args.command is not None or args.command_script is not None)
+    if not fixed and (args.command is not None or args.command_script is not None):
+        print("warning: this env has no set_command(); its own commands are recorded", file=sys.stderr)
+
+    def first(x):
+        return x[0] if isinstance(x, tuple) else x
+
+    obs = first(env.reset())
+    if fixed:
+        env.set_command(np.tile(schedule.at(0.0), (n, 1)))
+    rec.capture(0, sim, env.nominal)
+    progress = Progress(rec.num_steps, dt)
+    for step in range(1, rec.num_steps + 1):
+        if fixed:
+            env.set_command(np.tile(schedule.at((step - 1) * dt), (n, 1)))
+        obs = first(env.step(runner.policy(obs)))
+        rec.capture(step, sim, env.nominal)
+        progress(step)
+    meta = {"mode": "policy", "checkpoint": os.path.abspath(args.checkpoint), "preset": str(args.preset),
+            "device": str(args.device)}  # fmt: skip
+    return rec, meta
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = build_parser().parse_args(argv)
+    try:
+        schedule = validate(args)
+        import warp as wp
+
+        wp.config.quiet = True
+        t0 = time.perf_counter()
+        mode = "policy " + args.checkpoint if args.checkpoint else f"nominal {args.gait} gait, open loop"
+        print(f"rollout: {args.num_envs} robots, {args.seconds:g} s, {mode}, device {args.device}", flush=True)
+        rec, meta = (run_policy if args.checkpoint else run_nominal)(args, schedule)
+        t_sim = time.perf_counter() - t0
+        meta["commandLine"] = shlex.join(["python", "tools/export_usd.py", *argv])
+        meta["commandSchedule"] = "; ".join(
+            f"t={t:g}: {c[0]:g},{c[1]:g},{c[2]:g}" for t, c in zip(schedule.times, schedule.commands)
+        )
+        size = rec.write(args.out, meta)
+    except UsageError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except ValueError as e:  # e.g. the output path became invalid while simulating
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(f"error: cannot write {args.out!r}: {e}", file=sys.stderr)
+        return 2
+    wall = time.perf_counter() - t0
+    print(f"wrote {args.out}: {rec.num_frames} frames x {rec.num_envs} robots, {size / 1e6:.2f} MB; "
+          f"simulation {t_sim:.1f} s, writing {wall - t_sim:.1f} s, total {wall:.1f} s")  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,240 @@
+"""Train the residual PPO policy of the paper on the wheeled Go1 (rsl-rl OnPolicyRunner on the wqwarp env).
+
+Examples::
+
+    python train/ppo_newton.py                                   # no_predictor preset, CPU defaults (~1 h, 2 cores)
+    python train/ppo_newton.py --preset pmtg --num-envs 256 --max-iterations 2000
+    python train/ppo_newton.py --resume runs/no_predictor_20261126-0900/model_500.pt
+    python train/ppo_newton.py --device cuda:0 --num-envs 4096
+    torchrun --nproc_per_node=K train/ppo_newton.py --device cuda:0 --num-envs 4096   # K GPUs, rsl-rl's DDP path
+
+Writes to the log directory: TensorBoard events, ``model_<it>.pt`` checkpoints (policy, critic, optimizer,
+estimator, observation layout), ``config.json``, and at the end ``export/policy.pt`` (TorchScript), ``export/
+policy.onnx`` and ``export/policy.json`` (the onboard policy: observation history -> estimator -> actor).
+An interrupted run (Ctrl-C or an error) saves ``model_<it>_interrupted.pt`` before exiting.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import datetime
+import io
+import json
+import os
+import sys
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    from wqwarp.config import PRESETS
+
+    p = argparse.ArgumentParser(
+        prog="ppo_newton.py",
+        description=__doc__.split("\n\n")[0],
+        epilog=__doc__.split("\n\n", 1)[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--preset",
+        default="no_predictor",
+        choices=sorted(PRESETS),
+        help="method of the paper to train (default: no_predictor = fixed augmented trotting gait with "
+        "nominal wheel velocities; baseline = no nominal gait; pmtg = trotting without nominal wheel "
+        "velocities)",
+    )
+    p.add_argument("--num-envs", type=int, default=128, help="parallel robots (default 128; 4096 on a GPU)")
+    p.add_argument(
+        "--max-iterations",
+        type=int,
+        default=1500,
+        help="PPO iterations of 24 steps per robot each (default 1500, about an hour on 2 CPU cores)",
+    )
+    p.add_argument(
+        "--device",
+        default="cpu",
+        help="cpu (mujoco.rollout on all cores) or cuda:N (Newton SolverMuJoCo with CUDA graphs); "
+        "under torchrun each process uses cuda:<LOCAL_RANK>",
+    )
+    p.add_argument("--seed", type=int, default=1, help="random seed (offset by the rank under torchrun)")
+    p.add_argument(
+        "--log-dir",
+        default=None,
+        help="output directory (default runs/<preset>_<date-time>); must not hold checkpoints already, "
+        "unless --resume points into it",
+    )
+    p.add_argument(
+        "--resume", default=None, help="checkpoint (model_<it>.pt) to continue from; its layout must match --preset"
+    )
+    p.add_argument("--save-interval", type=int, default=50, help="iterations between checkpoints (default 50)")
+    p.add_argument("--num-steps-per-env", type=int, default=24, help="rollout length per iteration (default 24)")
+    p.add_argument("--dt", type=float, default=0.005, help="physics step [s] (default 0.005; the paper uses 0.001)")
+    p.add_argument(
+        "--decimation",
+        type=int,
+        default=4,
+        help="physics steps per 50 Hz policy step (default 4; the paper's dt 0.001 needs 20)",
+    )
+    p.add_argument(
+        "--true-state",
+        action="store_true",
+        help="debug: feed the true base velocity and height to the policy instead of the estimator's",
+    )
+    p.add_argument("--no-export", action="store_true", help="skip the TorchScript / ONNX export at the end")
+    return p.parse_args(argv)
+
+
+def fail(msg: str) -> None:
+    print(f"error: {msg}", file=sys.stderr)
+    sys.exit(2)
+
+
+def resolve_log_dir(args) -> str:
+    if args.log_dir is None:
+        stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+        return os.path.join("runs", f"{args.preset}_{stamp}")
+    d = args.log_dir
+    if os.path.isdir(d) and any(f.startswith("model_") for f in os.listdir(d)):
+        if not (args.resume and os.path.abspath(os.path.dirname(args.resume)) == os.path.abspath(d)):
+            fail(f"log dir {d!r} already holds checkpoints; choose another --log-dir or --resume from one of them")
+    return d
+
+
+class Progress:
+    """One status line per iteration instead of rsl-rl's block: progress bar, ETA and the key metrics."""
+
+    def __init__(self, runner, total: int, start: int):
+        self.runner, self.total, self.start, self.t0 = runner, total, start, time.time()
+        self.metrics: dict = {}
+        logger = runner.logger
+        original = logger.log
+
+        def log(**kw):
+            ep = {}
+            for info in logger.ep_extras:
+                for k, v in info.items():
+                    ep.setdefault(k, []).append(float(v.mean()) if hasattr(v, "mean") else float(v))
+            with contextlib.redirect_stdout(io.StringIO()):
+                original(**kw)
+            self.line(kw["it"], ep, kw["collect_time"], kw["learn_time"])
+
+        logger.log = log
+
+    def line(self, it: int, ep: dict, collect: float, learn: float) -> None:
+        import statistics
+
+        done = it + 1 - self.start
+        frac = (it + 1) / max(self.total, 1)
+        elapsed = time.time() - self.t0
+        eta = elapsed / max(done, 1) * (self.total - it - 1)
+        r = self.runner.logger.rewbuffer
+        mean = lambda k: sum(ep[k]) / len(ep[k]) if ep.get(k) else float("nan")  # noqa: E731
+        sps = self.runner.env.num_envs * self.runner.cfg["num_steps_per_env"] / max(collect + learn, 1e-9)
+        self.metrics = {
+            "iteration": it + 1, "mean_reward": statistics.mean(r) if len(r) else float("nan"),
+            "vx_error": mean("Metrics/vx_error"), "vy_error": mean("Metrics/vy_error"),
+            "wz_error": mean("Metrics/wz_error"), "p_cost": mean("Metrics/p_cost"), "steps_per_s": sps,
+        }  # fmt: skip
+        bar = "#" * int(20 * frac) + "-" * (20 - int(20 * frac))
+        m = self.metrics
+        print(f"\r[{bar}] {it + 1}/{self.total} ETA {datetime.timedelta(seconds=int(eta))} | "
+              f"reward {m['mean_reward']:7.2f} | err vx {m['vx_error']:.2f} vy {m['vy_error']:.2f} "
+              f"wz {m['wz_error']:.2f} | power {m['p_cost']:6.1f} W | {sps:6.0f} steps/s", end="", flush=True)  # fmt: skip
+        if (it + 1) % 10 == 0 or it + 1 == self.total:
+            print(flush=True)
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    if args.num_envs < 1 or args.max_iterations < 1 or args.save_interval < 1 or args.num_steps_per_env < 1:
+        fail("--num-envs, --max-iterations, --save-interval and --num-steps-per-env must be positive")
+    if args.resume and not os.path.isfile(args.resume):
+        fail(f"--resume: no such checkpoint {args.resume!r}")
+    world = int(os.getenv("WORLD_SIZE", "1"))
+    rank = int(os.getenv("RANK", "0"))
+    device = args.device
+    if world > 1:
+        device = f"cuda:{int(os.getenv('LOCAL_RANK', '0'))}"
+    if not (device == "cpu" or device.startswith("cuda")):
+        fail(f"--device must be cpu or cuda:N, got {device!r}")
+
+    import torch
+    import warp as wp
+
+    wp.config.quiet = True
+    wp.init()
+    if device.startswith("cuda") and not wp.is_cuda_available():
+        fail(f"--device {device}: no CUDA device is available to Warp")
+    torch.manual_seed(args.seed + rank)
+
+    from wqwarp.config import TrainConfig, make_preset, to_dict
+    from wqwarp.env import WheeledGo1Env
+    from wqwarp.runner import WqRunner, export_onboard_policy
+
+    log_dir = resolve_log_dir(args)
+    cfg = make_preset(args.preset)
+    cfg.sim.num_envs = args.num_envs
+    cfg.sim.device = device
+    cfg.sim.dt = args.dt
+    cfg.sim.decimation = args.decimation
+    cfg.seed = args.seed + rank
+    cfg.estimator.use_true_state = args.true_state
+    tcfg = TrainConfig(max_iterations=args.max_iterations, save_interval=args.save_interval,
+                       num_steps_per_env=args.num_steps_per_env)  # fmt: skip
+    print(f"wqwarp: preset {args.preset}, {args.num_envs} robots on {device}, log dir {log_dir}", flush=True)
+    t_setup = time.time()
+    env = WheeledGo1Env(cfg, estimator_interval=tcfg.num_steps_per_env)
+    print(f"environment ready in {time.time() - t_setup:.1f} s ({env.num_obs} actor observations, "
+          f"{env.num_actions} actions)", flush=True)  # fmt: skip
+    os.makedirs(log_dir, exist_ok=True)
+    with open(os.path.join(log_dir, "config.json"), "w", encoding="utf-8") as f:
+        json.dump({"args": vars(args), "env": to_dict(cfg), "train": to_dict(tcfg)}, f, indent=2)
+    with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the full networks
+        runner = WqRunner(env, tcfg.rsl_rl_dict(), log_dir=log_dir, device=device)
+    if args.resume:
+        try:
+            runner.load(args.resume)
+        except ValueError as e:
+            fail(str(e))
+        runner.current_learning_iteration += 1  # continue after the checkpoint; never rewrite it
+        print(f"resumed from {args.resume} at iteration {runner.current_learning_iteration}", flush=True)
+    start = runner.current_learning_iteration
+    total = start + args.max_iterations if args.resume else args.max_iterations
+    progress = Progress(runner, total, start)
+    t0 = time.time()
+    try:
+        runner.learn(num_learning_iterations=total - start, init_at_random_ep_len=not args.resume)
+    except (KeyboardInterrupt, Exception) as e:
+        path = os.path.join(log_dir, f"model_{runner.current_learning_iteration}_interrupted.pt")
+        if rank == 0:
+            runner.save(path)
+        print(f"\ninterrupted ({type(e).__name__}: {e}); saved {path}", file=sys.stderr)
+        if isinstance(e, KeyboardInterrupt):
+            return 130
+        raise
+    wall = time.time() - t0
+    last = os.path.join(log_dir, f"model_{runner.current_learning_iteration}.pt")
+    exported = {}
+    if rank == 0 and not args.no_export:
+        exported = export_onboard_policy(runner, os.path.join(log_dir, "export"))
+    if rank == 0:
+        m = progress.metrics
+        print("\n" + "=" * 72)
+        print(f" preset {args.preset} | {args.num_envs} robots on {device} | {total - start} iterations in "
+              f"{datetime.timedelta(seconds=int(wall))}")  # fmt: skip
+        print(f" mean episode reward {m.get('mean_reward', float('nan')):.2f} | |v_x error| "
+              f"{m.get('vx_error', float('nan')):.3f} m/s | |v_y error| {m.get('vy_error', float('nan')):.3f} m/s | "
+              f"|w_z error| {m.get('wz_error', float('nan')):.3f} rad/s")  # fmt: skip
+        print(f" mean p_cost {m.get('p_cost', float('nan')):.1f} W | {m.get('steps_per_s', 0):.0f} env steps/s")
+        print(f" checkpoint  {last}")
+        for k, v in exported.items():
+            print(f" export      {v} ({k})")
+        print(f" tensorboard --logdir {log_dir}")
+        print("=" * 72)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

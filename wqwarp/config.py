@@ -1,0 +1,279 @@
+"""One config tree for the residual-RL environment and training, and the paper's methods as presets.
+
+Every field carries its unit and source. Code reads behaviour fields (``action.use_nominal_legs``,
+``gait.selection``, ...), never a preset's name. Presets return fresh objects: nothing shared is mutated.
+
+The paper's five methods (Sec. IV):
+    baseline      no nominal gait; actions are joint position offsets and wheel velocities; no residual penalty
+    pmtg          fixed trotting gait, wheel velocities from the policy only (no nominal wheel velocities)
+    no_predictor  fixed augmented trotting gait with nominal wheel velocities ("Ours w/o predictive module")
+    no_wheel_vel  predictive gait selection, no nominal wheel velocities (added with the gait-selection issue)
+    ours          predictive gait selection with nominal wheel velocities (added with the gait-selection issue)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+from wqwarp.sim.backend import SimConfig
+
+REWARD_TERMS: tuple[str, ...] = (
+    "track_vx",
+    "track_vy",
+    "track_wz",
+    "residual",
+    "orientation",
+    "lin_vel_z",
+    "ang_vel_xy",
+    "joint_acc",
+    "torques",
+    "action_smoothness",
+    "collision",
+    "energy",
+)
+"""Reward terms of the paper's Table II, in the order of the reward kernel's output columns."""
+
+
+@dataclass
+class RewardConfig:
+    """Weights of the paper's Table II. Each term is multiplied by its weight and by the policy step dt (legged_gym
+    convention), summed per step; a zero weight skips the term. Definitions in ``wqwarp.kernels.rewards``."""
+
+    track_vx: float = 2.0
+    """exp(-4 (v_x^cmd - v_x)^2), base frame."""
+    track_vy: float = 2.0
+    """exp(-4 (v_y^cmd - v_y)^2)."""
+    track_wz: float = 3.0
+    """exp(-4 (w^cmd - w_z)^2)."""
+    residual: float = -0.3
+    """||a_t|| (L2 norm of the raw action)."""
+    orientation: float = -2.0
+    """||g_xy||^2, projected gravity."""
+    lin_vel_z: float = -2.0
+    """v_z^2."""
+    ang_vel_xy: float = -0.05
+    """||w_xy||^2."""
+    joint_acc: float = -2.5e-7
+    """||qdd||^2 over the 16 joints, finite difference over a policy step."""
+    torques: float = -1e-5
+    """||tau||^2."""
+    action_smoothness: float = -0.01
+    """||a_t + a_{t-2} - 2 a_{t-1}||^2."""
+    collision: float = -2.0
+    """Number of trunk / thigh / calf bodies touching the ground."""
+    energy: float = -1e-5
+    """||tau * qd||^2."""
+    tracking_sigma: float = 4.0
+    """The 4 in exp(-4 err^2) [1/(m/s)^2]."""
+
+    def weights(self) -> list[float]:
+        return [float(getattr(self, k)) for k in REWARD_TERMS]
+
+
+@dataclass
+class CommandConfig:
+    """Velocity commands (v_x, v_y, w_z) in the base frame, resampled during an episode."""
+
+    vx_range: tuple[float, float] = (-1.0, 1.0)
+    """[m/s] covers the paper's evaluation range v_x in [-1, 1]."""
+    vy_range: tuple[float, float] = (-0.7, 0.7)
+    """[m/s] paper: v_y in [-0.7, 0.7]."""
+    wz_range: tuple[float, float] = (-0.7, 0.7)
+    """[rad/s] paper: w in [-0.7, 0.7]."""
+    resampling_time: float = 10.0
+    """Seconds between command resamples within an episode [s]."""
+    single_axis_prob: float = 0.5
+    """Probability that a sample has only one non-zero axis (the paper evaluates single-axis commands)."""
+    zero_prob: float = 0.1
+    """Probability of a zero command (standing still)."""
+
+
+@dataclass
+class GaitConfig:
+    """Nominal gait and its selection."""
+
+    selection: str = "fixed"
+    """``fixed``: always ``fixed_gait``; ``none``: no nominal gait (baseline); ``predictive``: the power predictor
+    picks the gait (the gait-selection issue)."""
+    fixed_gait: str = "trotting"
+    """Gait from the paper's Table I used when ``selection == 'fixed'``."""
+    body_height: float = 0.2
+    """h_b [m] (authors' harness: body height 0.2 m)."""
+    swing_height: float = 0.1
+    """h_s [m] (authors' harness: clearance 0.1 m)."""
+
+
+@dataclass
+class ActionConfig:
+    """How the policy's action maps to leg and wheel targets (authors' public harness scales)."""
+
+    use_nominal_legs: bool = True
+    """Legs: p_des = p_n + dp -> IK -> PD (False: baseline joint-offset actions around the default pose)."""
+    use_nominal_wheels: bool = True
+    """Wheels: v_des = v_n + dv (False: v_des = dv, as PMTG and 'w/o nominal wheel velocity')."""
+    phase_scale: float = 0.2
+    """Phase residual per unit action [cycles per policy step] (harness x0.2)."""
+    phase_clip: float = 0.2
+    """|dphi| bound [cycles per policy step]."""
+    foot_scale: float = 0.2
+    """Wheel-centre residual per unit action [m] (harness x0.2)."""
+    foot_clip: float = 0.3
+    """|dp| bound per axis [m] (harness clip 0.3)."""
+    wheel_scale: float = 5.0
+    """Wheel-speed residual per unit action [rad/s] (harness x5)."""
+    wheel_clip: float = 40.0
+    """|v_des| bound [rad/s] (harness clip 40; AK80-6 top speed 38.2)."""
+    joint_scale: float = 0.25
+    """Baseline only: joint offset per unit action [rad] (legged_gym Go1 action_scale 0.25)."""
+    clip_actions: float = 10.0
+    """Raw actions are clipped to +-this before scaling."""
+
+
+@dataclass
+class ObservationConfig:
+    """Observation scales and noise (legged_gym-style, documented in ``wqwarp.env``)."""
+
+    lin_vel_scale: float = 2.0
+    ang_vel_scale: float = 0.25
+    joint_vel_scale: float = 0.05
+    wheel_speed_scale: float = 0.05
+    """Scale of nominal wheel velocities in p_t."""
+    noise: bool = True
+    """Add uniform noise to the sensor part of the actor observation."""
+    noise_ang_vel: float = 0.2
+    """[rad/s]"""
+    noise_gravity: float = 0.05
+    noise_joint_pos: float = 0.01
+    """[rad]"""
+    noise_joint_vel: float = 1.5
+    """[rad/s]"""
+    history_length: int = 6
+    """H, the estimator's observation history (paper: H = 6)."""
+
+
+@dataclass
+class EstimatorConfig:
+    """MLP state estimator z_t = (v_x, v_y, h) from the last H proprioceptive observations."""
+
+    hidden_dims: tuple[int, ...] = (128, 64)
+    learning_rate: float = 1e-3
+    epochs: int = 2
+    """Passes over each iteration's samples."""
+    batch_size: int = 512
+    use_true_state: bool = False
+    """Debug switch: feed the true (v_x, v_y, h) to the policy instead of the estimate."""
+
+
+@dataclass
+class DomainRandConfig:
+    """Randomised per robot at start-up (friction, restitution, mass) and pushes during episodes."""
+
+    friction_range: tuple[float, float] = (0.5, 1.25)
+    """Sliding friction coefficient [-] of all contacts."""
+    restitution_range: tuple[float, float] = (0.0, 0.4)
+    """Coefficient of restitution [-], mapped to MuJoCo's contact damping ratio (MuJoCo has no restitution)."""
+    added_mass_range: tuple[float, float] = (-1.0, 2.0)
+    """Mass added to the trunk [kg]."""
+    motor_strength_range: tuple[float, float] = (0.9, 1.1)
+    """Torque scale of every motor [-]."""
+    push_interval: float = 15.0
+    """Seconds between random pushes [s] (paper: every 15 s); <= 0 disables pushes."""
+    push_max_vel: float = 0.5
+    """Largest velocity impulse along x and along y [m/s] (paper evaluates 0.5 and 0.7)."""
+    enabled: bool = True
+
+
+@dataclass
+class EnvConfig:
+    """The residual-RL environment."""
+
+    sim: SimConfig = field(default_factory=SimConfig)
+    episode_length_s: float = 20.0
+    """Episode length [s] (paper: 20 s)."""
+    reward: RewardConfig = field(default_factory=RewardConfig)
+    commands: CommandConfig = field(default_factory=CommandConfig)
+    gait: GaitConfig = field(default_factory=GaitConfig)
+    action: ActionConfig = field(default_factory=ActionConfig)
+    obs: ObservationConfig = field(default_factory=ObservationConfig)
+    estimator: EstimatorConfig = field(default_factory=EstimatorConfig)
+    domain_rand: DomainRandConfig = field(default_factory=DomainRandConfig)
+    seed: int = 1
+
+
+@dataclass
+class TrainConfig:
+    """rsl-rl PPO settings (legged_gym defaults unless noted)."""
+
+    num_steps_per_env: int = 24
+    max_iterations: int = 1500
+    save_interval: int = 50
+    """Iterations between checkpoints."""
+    actor_hidden_dims: tuple[int, ...] = (256, 128, 64)
+    critic_hidden_dims: tuple[int, ...] = (256, 128, 64)
+    init_noise_std: float = 0.5
+    learning_rate: float = 1e-3
+    num_learning_epochs: int = 5
+    num_mini_batches: int = 4
+    entropy_coef: float = 0.005
+    gamma: float = 0.99
+    lam: float = 0.95
+    desired_kl: float = 0.01
+    clip_param: float = 0.2
+
+    def rsl_rl_dict(self) -> dict:
+        """The runner configuration rsl-rl 5.5.1 expects (asymmetric critic through ``obs_groups``)."""
+        dist = {"class_name": "GaussianDistribution", "init_std": self.init_noise_std, "std_type": "scalar"}
+        return {
+            "num_steps_per_env": self.num_steps_per_env,
+            "save_interval": self.save_interval,
+            "obs_groups": {"actor": ["policy"], "critic": ["policy", "privileged"]},
+            "actor": {"class_name": "MLPModel", "hidden_dims": list(self.actor_hidden_dims), "activation": "elu",
+                      "obs_normalization": True, "distribution_cfg": dist},
+            "critic": {"class_name": "MLPModel", "hidden_dims": list(self.critic_hidden_dims), "activation": "elu",
+                       "obs_normalization": True},
+            "algorithm": {"class_name": "PPO", "learning_rate": self.learning_rate,
+                          "num_learning_epochs": self.num_learning_epochs, "num_mini_batches": self.num_mini_batches,
+                          "clip_param": self.clip_param, "gamma": self.gamma, "lam": self.lam,
+                          "entropy_coef": self.entropy_coef, "desired_kl": self.desired_kl, "schedule": "adaptive",
+                          "value_loss_coef": 1.0, "max_grad_norm": 1.0, "use_clipped_value_loss": True},
+            "logger": "tensorboard",
+            "check_for_nan": True,
+        }  # fmt: skip
+
+
+def _baseline() -> EnvConfig:
+    cfg = EnvConfig()
+    cfg.gait = GaitConfig(selection="none")
+    cfg.action = ActionConfig(use_nominal_legs=False, use_nominal_wheels=False)
+    cfg.reward = RewardConfig(residual=0.0)  # the paper omits the residual penalty for the baseline
+    return cfg
+
+
+def _pmtg() -> EnvConfig:
+    cfg = EnvConfig()
+    cfg.gait = GaitConfig(selection="fixed", fixed_gait="trotting")
+    cfg.action = ActionConfig(use_nominal_wheels=False)
+    return cfg
+
+
+def _no_predictor() -> EnvConfig:
+    cfg = EnvConfig()
+    cfg.gait = GaitConfig(selection="fixed", fixed_gait="trotting")
+    return cfg
+
+
+PRESETS = {"baseline": _baseline, "pmtg": _pmtg, "no_predictor": _no_predictor}
+"""Preset name -> factory of a fresh :class:`EnvConfig`."""
+
+
+def make_preset(name: str) -> EnvConfig:
+    """A fresh config of preset ``name`` (ValueError naming the known presets otherwise)."""
+    if name not in PRESETS:
+        raise ValueError(f"unknown preset {name!r}; known presets: {', '.join(PRESETS)}")
+    return PRESETS[name]()
+
+
+def to_dict(cfg) -> dict:
+    """A plain, JSON-serialisable dict of a config (for logs and checkpoints)."""
+    return dataclasses.asdict(cfg)

@@ -1,0 +1,73 @@
+"""MLP state estimator: z_t = (v_x, v_y, h) of the base from the last H proprioceptive observations.
+
+Paper, "Estimator Module": an MLP trained by supervised learning in simulation estimates the planar base velocity
+and the base height from the observation history O_t^H (H = 6). Here it is regressed on the rollouts the PPO runner
+collects: the environment stores (history, true state) pairs every step and fits the MLP once per iteration.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+
+class StateEstimator(nn.Module):
+    """MLP from a flattened history (B, H * D) to (v_x [m/s], v_y [m/s], h [m])."""
+
+    def __init__(self, input_dim: int, hidden_dims: tuple[int, ...] = (128, 64), output_dim: int = 3):
+        super().__init__()
+        layers: list[nn.Module] = []
+        d = input_dim
+        for h in hidden_dims:
+            layers += [nn.Linear(d, h), nn.ELU()]
+            d = h
+        layers.append(nn.Linear(d, output_dim))
+        self.net = nn.Sequential(*layers)
+        self.input_dim = input_dim
+
+    def forward(self, history: torch.Tensor) -> torch.Tensor:
+        return self.net(history)
+
+
+class EstimatorTrainer:
+    """Collects (history, target) pairs and fits the estimator by MSE every ``interval`` environment steps."""
+
+    def __init__(self, estimator: StateEstimator, lr: float, epochs: int, batch_size: int, interval: int):
+        self.estimator = estimator
+        self.optimizer = torch.optim.Adam(estimator.parameters(), lr=lr)
+        self.epochs = epochs
+        self.batch_size = batch_size
+        self.interval = interval
+        """Steps between fits: the runner's ``num_steps_per_env``, i.e. once per PPO iteration."""
+        self._inputs: list[torch.Tensor] = []
+        self._targets: list[torch.Tensor] = []
+        self.last_loss = float("nan")
+        """Mean squared error of the last fit [(m/s)^2 and m^2 mixed]."""
+
+    def add(self, history: torch.Tensor, target: torch.Tensor) -> None:
+        self._inputs.append(history.detach().clone())
+        self._targets.append(target.detach().clone())
+        if len(self._inputs) >= self.interval:
+            self.fit()
+
+    def fit(self) -> float:
+        if not self._inputs:
+            return self.last_loss
+        x = torch.cat(self._inputs)
+        y = torch.cat(self._targets)
+        self._inputs.clear()
+        self._targets.clear()
+        losses = []
+        with torch.inference_mode(False), torch.enable_grad():
+            x, y = x.clone(), y.clone()  # leave inference mode (the runner collects under torch.inference_mode)
+            for _ in range(self.epochs):
+                perm = torch.randperm(x.shape[0], device=x.device)
+                for s in range(0, x.shape[0], self.batch_size):
+                    idx = perm[s : s + self.batch_size]
+                    loss = torch.mean((self.estimator(x[idx]) - y[idx]) ** 2)
+                    self.optimizer.zero_grad()
+                    loss.backward()
+                    self.optimizer.step()
+                    losses.append(loss.item())
+        self.last_loss = float(sum(losses) / max(len(losses), 1))
+        return self.last_loss
