@@ -55,10 +55,10 @@ def compute_rewards(
     v = wp.quat_rotate_inv(q, wp.vec3(joint_qd[i, 0], joint_qd[i, 1], joint_qd[i, 2]))
     w = wp.quat_rotate_inv(q, wp.vec3(joint_qd[i, 3], joint_qd[i, 4], joint_qd[i, 5]))
     g = wp.quat_rotate_inv(q, wp.vec3(0.0, 0.0, -1.0))
-    total = 0.0
+    total = float(0.0)
     for k in range(NUM_TERMS):
         wk = weight[k]
-        r = 0.0
+        r = float(0.0)
         if wk != 0.0:
             if k == 0:
                 r = tracking_reward(command[i, 0], v[0], sigma)
@@ -67,7 +67,7 @@ def compute_rewards(
             elif k == 2:
                 r = tracking_reward(command[i, 2], w[2], sigma)
             elif k == 3:  # residual ||a_t||
-                s = 0.0
+                s = float(0.0)
                 for j in range(action.shape[1]):
                     s += action[i, j] * action[i, j]
                 r = wp.sqrt(s)

@@ -10,11 +10,11 @@ Without --checkpoint the robots play the nominal gait alone, open loop: legs tra
 wheels the nominal wheel speeds; so the gait library can be inspected before any training. With --checkpoint a
 trained policy drives them (needs wqwarp.play).
 
-The stage: Z up, metres, /World/ground (top face at z = 0), /World/robot_{i} side by side along y (1 m apart),
-one Xform per rigid body /World/robot_{i}/{body} with the asset's shapes and its pose sampled every frame, and the
-per-frame attributes wqwarp:gait, wqwarp:activeGait, wqwarp:phase, wqwarp:command, wqwarp:baseVelocity,
-wqwarp:pCost, wqwarp:wheelContact on each /World/robot_{i} (see wqwarp/usd_export.py). Open it with
-``usdview FILE`` and scrub the timeline.
+The stage: Z up, metres, /World/ground (top face at z = 0), /World/robot_{i} side by side along y (1 m apart, more
+if their paths would overlap sideways), one Xform per rigid body /World/robot_{i}/{body} with the asset's shapes and
+its pose sampled every frame, and the per-frame attributes wqwarp:gait, wqwarp:activeGait, wqwarp:phase,
+wqwarp:command, wqwarp:baseVelocity, wqwarp:pCost, wqwarp:wheelContact on each /World/robot_{i} (see
+wqwarp/usd_export.py). Open it with ``usdview FILE`` and scrub the timeline.
 
 Command script (--command-script): one ``t,vx,vy,wz`` line per change (commas or spaces), t in seconds from which
 that command applies, times increasing; before the first line the command is zero. Blank lines, lines starting with
@@ -109,28 +109,62 @@ def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="tools/export_usd.py",
         description=doc[0],
-        epilog="\n\n".join(doc[2:]),
+        epilog="\n\n".join(doc[3:]),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    ap.add_argument("--out", required=True, help=f"output USD file; extension one of {', '.join(USD_EXTENSIONS)} "
-                    "(.usda text, .usdc / .usd binary crate); its directory must exist")  # fmt: skip
-    ap.add_argument("--checkpoint", default=None, help="trained policy checkpoint to play (default: none, the "
-                    "nominal gait alone, open loop)")  # fmt: skip
-    ap.add_argument("--preset", default=None, help="config preset the checkpoint was trained with (wqwarp.config "
-                    "presets, e.g. ours); only with --checkpoint")  # fmt: skip
-    ap.add_argument("--gait", default="trotting", choices=GAIT_NAMES, help="nominal gait played without a "
-                    "checkpoint (default trotting)")  # fmt: skip
-    ap.add_argument("--num-envs", type=int, default=4, help="number of robots, laid out side by side (default 4)")
-    ap.add_argument("--seconds", type=float, default=10.0, help="simulated time [s] (default 10)")
+    exts = ", ".join(USD_EXTENSIONS)
+    add = ap.add_argument
+    add(
+        "--out",
+        required=True,
+        metavar="FILE",
+        help=f"output USD file, extension one of {exts} (.usda text, .usdc / .usd binary crate); its directory must "
+        "exist and be writable",
+    )
+    add(
+        "--checkpoint",
+        default=None,
+        metavar="PATH",
+        help="trained policy checkpoint to play (default: none, the nominal gait alone, open loop)",
+    )
+    add(
+        "--preset",
+        default=None,
+        metavar="NAME",
+        help="config preset the checkpoint was trained with (a wqwarp.config preset, e.g. ours); only with "
+        "--checkpoint",
+    )
+    add(
+        "--gait",
+        default="trotting",
+        choices=GAIT_NAMES,
+        help="nominal gait played without a checkpoint (default trotting)",
+    )
+    add("--num-envs", type=int, default=4, metavar="N", help="number of robots, laid out side by side (default 4)")
+    add("--seconds", type=float, default=10.0, metavar="S", help="simulated time [s] (default 10)")
     cmd = ap.add_mutually_exclusive_group()
-    cmd.add_argument("--command", default=None, help="constant velocity command vx,vy,wz in the base frame "
-                     "[m/s, m/s, rad/s] for every robot (default 0,0,0; write a negative first value as "
-                     "--command=-0.5,0,0)")  # fmt: skip
-    cmd.add_argument("--command-script", default=None, help="file of 't,vx,vy,wz' lines: the command from time t "
-                     "[s] on (see below)")  # fmt: skip
-    ap.add_argument("--fps", type=float, default=50.0, help="frames per second of the stage (default 50 = every "
-                    "policy step; other rates show the nearest policy step)")  # fmt: skip
-    ap.add_argument("--device", default="cpu", help="Warp device for the simulation: cpu (default) or cuda:N")
+    cmd.add_argument(
+        "--command",
+        default=None,
+        metavar="VX,VY,WZ",
+        help="constant velocity command in the base frame [m/s, m/s, rad/s] for every robot (default "
+        "0,0,0); write a negative first value as --command=-0.5,0,0",
+    )
+    cmd.add_argument(
+        "--command-script",
+        default=None,
+        metavar="FILE",
+        help="file of 't,vx,vy,wz' lines: the command from time t [s] on (see below)",
+    )
+    add(
+        "--fps",
+        type=float,
+        default=50.0,
+        metavar="FPS",
+        help="frames per second of the stage (default 50 = every "
+        "policy step; other rates show the nearest policy step)",
+    )
+    add("--device", default="cpu", metavar="DEVICE", help="Warp device for the simulation: cpu (default) or cuda:N")
     return ap
 
 
@@ -158,18 +192,21 @@ class Progress:
 
     def __init__(self, steps: int, policy_dt: float):
         self.steps, self.dt, self.t0 = steps, policy_dt, time.perf_counter()
+        self.wall = 0.0
+        """Wall time of the rollout loop so far [s]."""
         seconds = steps * policy_dt
         self.every = max(1, int(round(max(1.0, seconds / 20) / policy_dt)))
 
     def __call__(self, step: int) -> None:
         if step % self.every == 0 or step == self.steps:
             pct = 100.0 * step / self.steps
-            wall = time.perf_counter() - self.t0
-            print(f"  t = {step * self.dt:6.2f} s  ({pct:5.1f} %)  wall {wall:6.1f} s", flush=True)
+            self.wall = time.perf_counter() - self.t0
+            print(f"  t = {step * self.dt:6.2f} s  ({pct:5.1f} %)  wall {self.wall:6.1f} s", flush=True)
 
 
-def run_nominal(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict]:
-    """The nominal gait alone, open loop, for ``args.seconds``; returns the filled recorder and metadata."""
+def run_nominal(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict, float]:
+    """The nominal gait alone, open loop, for ``args.seconds``; returns the filled recorder, metadata and the wall
+    time of the rollout loop [s]."""
     import warp as wp
 
     from wqwarp.nominal import NominalGait
@@ -201,7 +238,7 @@ def run_nominal(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict]
         sim.step()
         rec.capture(step, sim, ng)
         progress(step)
-    return rec, {"mode": "nominal", "gait": args.gait, "device": str(device)}
+    return rec, {"mode": "nominal", "gait": args.gait, "device": str(device)}, progress.wall
 
 
 # --- checkpoint seam --------------------------------------------------------------------------------------------
@@ -211,18 +248,18 @@ def run_nominal(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict]
 #                   (or a tuple whose first item is them), one policy step each; optionally .set_command((N, 3))
 #                   to hold the velocity commands fixed (otherwise the env's own commands are recorded);
 #   .policy(obs)    the trained policy: observations -> actions (inference, no gradients).
-# It must raise ValueError (or KeyError) for a checkpoint that does not fit the preset's observation layout; the
-# message is shown to the user with exit status 2.
-def run_policy(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict]:
-    """A trained policy for ``args.seconds``; returns the filled recorder and metadata."""
+# It should raise ValueError for a checkpoint that does not fit the preset's observation layout (KeyError and
+# torch's RuntimeError from load_state_dict are caught too); the message is shown with exit status 2.
+def run_policy(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict, float]:
+    """A trained policy for ``args.seconds``; returns the filled recorder, metadata and the rollout wall time [s]."""
     try:
         from wqwarp.play import make_policy_runner
     except ImportError as e:
         raise UsageError(f"--checkpoint needs wqwarp.play.make_policy_runner, which is not available ({e})") from None
     try:
         runner = make_policy_runner(args.checkpoint, args.preset, args.num_envs, args.device)
-    except (ValueError, KeyError) as e:
-        raise UsageError(f"checkpoint {args.checkpoint!r} does not fit preset {args.preset!r}: {e}") from None
+    except (ValueError, KeyError, RuntimeError) as e:  # RuntimeError: torch's state_dict size mismatch
+        raise UsageError(f"cannot play checkpoint {args.checkpoint!r} with preset {args.preset!r}: {e}") from None
     env = runner.env
     sim = env.sim
     n = sim.num_envs
@@ -248,7 +285,7 @@ def run_policy(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict]:
         progress(step)
     meta = {"mode": "policy", "checkpoint": os.path.abspath(args.checkpoint), "preset": str(args.preset),
             "device": str(args.device)}  # fmt: skip
-    return rec, meta
+    return rec, meta, progress.wall
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -262,11 +299,12 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         mode = "policy " + args.checkpoint if args.checkpoint else f"nominal {args.gait} gait, open loop"
         print(f"rollout: {args.num_envs} robots, {args.seconds:g} s, {mode}, device {args.device}", flush=True)
-        rec, meta = (run_policy if args.checkpoint else run_nominal)(args, schedule)
+        rec, meta, t_loop = (run_policy if args.checkpoint else run_nominal)(args, schedule)
         t_sim = time.perf_counter() - t0
+        t_write = time.perf_counter()
         meta["commandLine"] = shlex.join(["python", "tools/export_usd.py", *argv])
         meta["commandSchedule"] = "; ".join(
-            f"t={t:g}: {c[0]:g},{c[1]:g},{c[2]:g}" for t, c in zip(schedule.times, schedule.commands)
+            f"t={t:g}: {c[0]:g},{c[1]:g},{c[2]:g}" for t, c in zip(schedule.times, schedule.commands, strict=True)
         )
         size = rec.write(args.out, meta)
     except UsageError as e:
@@ -278,9 +316,11 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as e:
         print(f"error: cannot write {args.out!r}: {e}", file=sys.stderr)
         return 2
-    wall = time.perf_counter() - t0
-    print(f"wrote {args.out}: {rec.num_frames} frames x {rec.num_envs} robots, {size / 1e6:.2f} MB; "
-          f"simulation {t_sim:.1f} s, writing {wall - t_sim:.1f} s, total {wall:.1f} s")  # fmt: skip
+    now = time.perf_counter()
+    print(
+        f"wrote {args.out}: {rec.num_frames} frames x {rec.num_envs} robots, {size / 1e6:.2f} MB; wall time: set-up "
+        f"{t_sim - t_loop:.1f} s, rollout {t_loop:.1f} s, writing {now - t_write:.1f} s, total {now - t0:.1f} s"
+    )
     return 0
 
 

@@ -4,7 +4,8 @@ Stage layout (Z up, metres, one time code per frame, ``timeCodesPerSecond = fram
 
     /World                          Xform (default prim)
     /World/ground                   Cube, top face at z = 0, covers every recorded position with a margin
-    /World/robot_{i}                Xform translated by (0, i * spacing, 0); per-frame custom attributes wqwarp:*
+    /World/robot_{i}                Xform translated by (0, i * spacing, 0) (1 m, more if the robots' paths would
+                                    overlap sideways); per-frame custom attributes wqwarp:*
     /World/robot_{i}/{body}         Xform per rigid body (trunk, FR_hip, FR_thigh, FR_calf, FR_wheel, ...):
                                     xformOp:translate (float3) + xformOp:orient (quatf), sampled every frame,
                                     the body's world pose from ``Simulator.body_q``
@@ -28,6 +29,7 @@ failed export never leaves a partial file.
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 from collections.abc import Sequence
@@ -47,6 +49,8 @@ ATTR_BASE_VELOCITY = "wqwarp:baseVelocity"
 ATTR_P_COST = "wqwarp:pCost"
 ATTR_WHEEL_CONTACT = "wqwarp:wheelContact"
 
+MIN_SPACING = 1.0
+"""Smallest distance between neighbouring robots along y [m]."""
 GROUND_THICKNESS = 0.02
 """Thickness of the ground slab below z = 0 [m]."""
 GROUND_MARGIN = 1.5
@@ -143,7 +147,7 @@ class RolloutRecorder:
         policy_dt: float,
         trunk_index: int,
         gait_names: Sequence[str] | None = None,
-        spacing: float = 1.0,
+        spacing: float | None = None,
         asset_path: str = C.WHEELED_GO1_USD,
     ):
         if num_envs < 1:
@@ -159,7 +163,7 @@ class RolloutRecorder:
 
             gait_names = GAIT_NAMES
         self.gait_names = tuple(gait_names)
-        self.spacing = float(spacing)
+        self.spacing = None if spacing is None else float(spacing)
         self.asset_path = asset_path
         self.steps = frame_steps(seconds, fps, policy_dt)
         self.num_steps = int(round(seconds / policy_dt))
@@ -224,6 +228,17 @@ class RolloutRecorder:
     def needs_step(self, step: int) -> bool:
         return bool(np.any(self.steps == step))
 
+    def robot_spacing(self) -> float:
+        """Distance between neighbouring robots along y [m]: the given ``spacing``, or (None) 1 m, widened in 0.5 m
+        steps until no two robots' recorded paths overlap sideways."""
+        if self.spacing is not None:
+            return self.spacing
+        y = self.body_q[self._captured][..., 1]
+        if y.size == 0:
+            return MIN_SPACING
+        width = float((y.max(axis=(0, 2)) - y.min(axis=(0, 2))).max()) + 0.3  # swept y range of a robot + margin
+        return max(MIN_SPACING, math.ceil(width / 0.5) * 0.5)
+
     # --- stage authoring ----------------------------------------------------------------------------------------
     def _gait_name(self, gait_id: int) -> str:
         return self.gait_names[gait_id] if 0 <= gait_id < len(self.gait_names) else f"gait_{gait_id}"
@@ -253,7 +268,7 @@ class RolloutRecorder:
             "seconds": self.seconds,
             "fps": self.fps,
             "policyDt": self.policy_dt,
-            "robotSpacing": self.spacing,
+            "robotSpacing": self.robot_spacing(),
             "legOrder": "FR, FL, RR, RL",
         }
         info.update(metadata or {})
@@ -265,7 +280,7 @@ class RolloutRecorder:
 
         # Ground: a slab with its top face at z = 0 under everything that was recorded.
         pos = self.body_q[..., 0:3].astype(np.float64)
-        offsets = np.arange(n) * self.spacing
+        offsets = np.arange(n) * self.robot_spacing()
         y = pos[..., 1] + offsets[None, :, None]
         lo = np.array([pos[..., 0].min(), y.min()]) - GROUND_MARGIN
         hi = np.array([pos[..., 0].max(), y.max()]) + GROUND_MARGIN

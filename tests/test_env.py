@@ -1,0 +1,126 @@
+"""The residual-RL environment: shapes and groups, layout decoding, reward logging, presets, and no NaN."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from wqwarp.config import PRESETS, REWARD_TERMS, RewardConfig, make_preset
+from wqwarp.env import PRIVILEGED_DIM, WheeledGo1Env, decode_observation, observation_layout
+
+N = 4
+
+
+def _env(preset: str = "no_predictor", **over) -> WheeledGo1Env:
+    cfg = make_preset(preset)
+    cfg.sim.num_envs = N
+    for k, v in over.items():
+        setattr(cfg, k, v)
+    return WheeledGo1Env(cfg)
+
+
+@pytest.fixture(scope="module")
+def env():
+    return _env()
+
+
+def test_shapes_and_groups(env):
+    obs = env.get_observations()
+    assert set(obs.keys()) == {"policy", "privileged"}
+    assert env.num_actions == 20
+    assert obs["policy"].shape == (N, 3 + 3 + 12 + 16 + 18 + 3 + 3 + 2 * 20)
+    assert obs["privileged"].shape == (N, PRIVILEGED_DIM)
+    o, r, d, extras = env.step(torch.zeros(N, env.num_actions))
+    assert r.shape == (N,) and d.shape == (N,) and extras["time_outs"].shape == (N,)
+
+
+def test_observation_decodes_into_named_parts(env):
+    env.cfg.obs.noise = False
+    cmd = torch.tensor([[0.5, -0.2, 0.3]] * N)
+    env.set_commands(cmd)
+    a = torch.linspace(-1, 1, env.num_actions).repeat(N, 1)
+    env.step(a)
+    b = torch.full((N, env.num_actions), 0.25)
+    obs, *_ = env.step(b)
+    parts = decode_observation(obs["policy"], env.num_actions)
+    assert list(parts) == [name for name, _ in observation_layout(env.num_actions)]
+    torch.testing.assert_close(parts["command"], cmd * torch.tensor([2.0, 2.0, 0.25]))
+    torch.testing.assert_close(parts["prev_action"], b)
+    torch.testing.assert_close(parts["prev2_action"], a)
+    base = env.base_state()
+    torch.testing.assert_close(parts["gravity"], base["gravity"])
+    torch.testing.assert_close(parts["leg_pos"], env.tv["actuated_q"][:, :12] - env.default_leg_q)
+    gait = parts["gait"]
+    phase = torch.atan2(gait[:, :4], gait[:, 4:8]) / (2 * np.pi) % 1.0
+    torch.testing.assert_close(phase, torch.as_tensor(env.nominal.phase.numpy()), atol=1e-5, rtol=0)
+    torch.testing.assert_close(gait[:, 12], torch.full((N,), 1.2))  # trotting f [Hz]
+    torch.testing.assert_close(gait[:, 13], torch.full((N,), 0.4))  # trotting DF_swing
+    torch.testing.assert_close(gait[:, 8:12], torch.clamp(0.2 * b[:, :4], -0.2, 0.2))  # phase residuals
+    torch.testing.assert_close(parts["estimate"], env.estimate * torch.tensor([2.0, 2.0, 1.0]))
+    env.cfg.obs.noise = True
+    with pytest.raises(ValueError):
+        decode_observation(obs["policy"][:, :-1], env.num_actions)
+
+
+def test_random_actions_give_no_nan_and_log_every_nonzero_term():
+    env = _env()
+    logged = set()
+    for _ in range(60):
+        obs, r, d, extras = env.step(torch.randn(N, env.num_actions))
+        assert torch.isfinite(obs["policy"]).all() and torch.isfinite(obs["privileged"]).all()
+        assert torch.isfinite(r).all()
+        logged |= {k.split("/", 1)[1] for k in extras["log"] if k.startswith("Episode_Reward/")}
+    env.episode_length_buf[:] = env.max_episode_length  # force a timeout of every robot
+    _, _, d, extras = env.step(torch.zeros(N, env.num_actions))
+    assert d.all() and extras["time_outs"].all()
+    logged |= {k.split("/", 1)[1] for k in extras["log"] if k.startswith("Episode_Reward/")}
+    nonzero = {k for k, w in zip(REWARD_TERMS, RewardConfig().weights(), strict=True) if w != 0}
+    assert logged == nonzero
+
+
+def test_zero_weight_terms_are_not_logged_or_computed():
+    cfg = make_preset("baseline")
+    assert cfg.reward.residual == 0.0  # the paper omits the residual penalty for the baseline
+    cfg.sim.num_envs = N
+    env = WheeledGo1Env(cfg)
+    env.episode_length_buf[:] = env.max_episode_length
+    _, _, _, extras = env.step(torch.randn(N, env.num_actions))
+    assert "Episode_Reward/residual" not in extras["log"]
+    assert (env.reward_terms_wp.numpy()[:, REWARD_TERMS.index("residual")] == 0).all()
+
+
+def test_reward_terms_sum_to_the_reward(env):
+    _, r, _, _ = env.step(torch.randn(N, env.num_actions) * 0.3)
+    terms = torch.as_tensor(env.reward_terms_wp.numpy())
+    torch.testing.assert_close(terms.sum(1), r, atol=1e-5, rtol=1e-5)
+    # Tracking terms lie in [0, w dt], penalties are <= 0.
+    w = torch.tensor(RewardConfig().weights()) * env.dt
+    assert (terms[:, :3] >= 0).all() and (terms[:, :3] <= w[:3] + 1e-6).all()
+    assert (terms[:, 3:] <= 1e-7).all()
+
+
+@pytest.mark.parametrize("preset", sorted(PRESETS))
+def test_each_preset_builds_and_steps(preset):
+    env = _env(preset)
+    assert env.num_actions == (16 if preset == "baseline" else 20)
+    for _ in range(5):
+        obs, r, d, _ = env.step(torch.randn(N, env.num_actions) * 0.2)
+    assert torch.isfinite(r).all()
+    if preset == "pmtg":  # no nominal wheel velocity: wheel targets come from the policy only
+        env.step(torch.zeros(N, env.num_actions))
+        assert np.allclose(env.sim.wheel_qd_target.numpy(), 0.0)
+    if preset == "no_predictor":
+        env.reset()
+        env.set_commands(torch.tensor([[0.6, 0.0, 0.0]] * N))
+        for _ in range(10):  # robots spawn 2 cm up; wheels count once they touch down
+            env.step(torch.zeros(N, env.num_actions))
+        wheels = env.sim.wheel_qd_target.numpy()
+        # Eq. (3) for wheels on the ground; a wheel in the air keeps its previous target (0 after the reset).
+        on_target = np.isclose(wheels, 0.6 / 0.075, rtol=0.05)
+        assert on_target.mean() >= 0.5 and np.all(on_target | (wheels == 0.0))
+
+
+def test_unknown_preset_is_a_clear_error():
+    with pytest.raises(ValueError, match="known presets"):
+        make_preset("ours_v2")
