@@ -248,6 +248,9 @@ def run_nominal(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict,
 #                   (or a tuple whose first item is them), one policy step each; optionally .set_command((N, 3))
 #                   to hold the velocity commands fixed (otherwise the env's own commands are recorded);
 #   .policy(obs)    the trained policy: observations -> actions (inference, no gradients).
+# What is recorded is read after every env.step from env.sim (body_q, joint_q, joint_qd, p_cost, wheel_contact) and
+# env.nominal (phase, command, gait_id, active_gait_id): the env must keep its current commands in
+# env.nominal.command and the policy's selected gait in env.nominal.gait_id.
 # It should raise ValueError for a checkpoint that does not fit the preset's observation layout (KeyError and
 # torch's RuntimeError from load_state_dict are caught too); the message is shown with exit status 2.
 def run_policy(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict, float]:

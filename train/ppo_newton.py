@@ -139,9 +139,10 @@ class Progress:
         }  # fmt: skip
         bar = "#" * int(20 * frac) + "-" * (20 - int(20 * frac))
         m = self.metrics
-        print(f"\r[{bar}] {it + 1}/{self.total} ETA {datetime.timedelta(seconds=int(eta))} | "
-              f"reward {m['mean_reward']:7.2f} | err vx {m['vx_error']:.2f} vy {m['vy_error']:.2f} "
-              f"wz {m['wz_error']:.2f} | power {m['p_cost']:6.1f} W | {sps:6.0f} steps/s", end="", flush=True)  # fmt: skip
+        status = (f"[{bar}] {it + 1}/{self.total} ETA {datetime.timedelta(seconds=int(eta))} | "
+                  f"reward {m['mean_reward']:7.2f} | err vx {m['vx_error']:.2f} vy {m['vy_error']:.2f} "
+                  f"wz {m['wz_error']:.2f} | power {m['p_cost']:6.1f} W | {sps:6.0f} steps/s")  # fmt: skip
+        print("\r" + status, end="", flush=True)
         if (it + 1) % 10 == 0 or it + 1 == self.total:
             print(flush=True)
 

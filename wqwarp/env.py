@@ -300,6 +300,10 @@ class WheeledGo1Env(VecEnv):
         """Overwrite the commands (N, 3) (v_x, v_y, w_z) in the base frame, e.g. for evaluation."""
         self.commands[:] = commands.to(self.device)
 
+    def set_command(self, commands) -> None:
+        """Same as :meth:`set_commands` for a NumPy or torch (N, 3) array (used by ``tools/export_usd.py``)."""
+        self.set_commands(torch.as_tensor(commands, dtype=torch.float32))
+
     def _push_robots(self) -> None:
         m = self.cfg.domain_rand.push_max_vel
         n = self.num_envs

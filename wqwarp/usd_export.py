@@ -145,7 +145,6 @@ class RolloutRecorder:
         seconds: float,
         fps: float,
         policy_dt: float,
-        trunk_index: int,
         gait_names: Sequence[str] | None = None,
         spacing: float | None = None,
         asset_path: str = C.WHEELED_GO1_USD,
@@ -157,7 +156,6 @@ class RolloutRecorder:
         self.fps = float(fps)
         self.seconds = float(seconds)
         self.policy_dt = float(policy_dt)
-        self.trunk_index = int(trunk_index)
         if gait_names is None:
             from wqwarp.gaits import GAIT_NAMES
 
@@ -184,7 +182,7 @@ class RolloutRecorder:
         """A recorder matching ``sim`` (a :class:`wqwarp.sim.backend.Simulator`)."""
         lay = sim.layout
         names = list(sim.model.body_label[: lay.bodies_per_world])
-        return cls(names, sim.num_envs, seconds, fps, sim.policy_dt, lay.trunk_body, **kwargs)
+        return cls(names, sim.num_envs, seconds, fps, sim.policy_dt, **kwargs)
 
     @property
     def num_frames(self) -> int:
@@ -224,9 +222,6 @@ class RolloutRecorder:
                 self.gait[k], self.active_gait[k] = gait, active
         self._captured[frames] = True
         return int(frames.size)
-
-    def needs_step(self, step: int) -> bool:
-        return bool(np.any(self.steps == step))
 
     def robot_spacing(self) -> float:
         """Distance between neighbouring robots along y [m]: the given ``spacing``, or (None) 1 m, widened in 0.5 m

@@ -1,0 +1,68 @@
+"""train/ppo_newton.py and train/evaluate.py end to end in subprocesses, with a tiny budget."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import torch
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _run(script, *args, timeout=600):
+    return subprocess.run([sys.executable, os.path.join(ROOT, "train", script), *args], capture_output=True,
+                          text=True, cwd=ROOT, timeout=timeout)  # fmt: skip
+
+
+def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
+    log = tmp_path / "run"
+    r = _run("ppo_newton.py", "--num-envs", "8", "--max-iterations", "2", "--log-dir", str(log), "--save-interval", "1")
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert (log / "model_0.pt").is_file() and (log / "model_1.pt").is_file()
+    assert (log / "export" / "policy.pt").is_file() and (log / "export" / "policy.onnx").is_file()
+    assert any(f.startswith("events.out.tfevents") for f in os.listdir(log))
+    ckpt = torch.load(log / "model_1.pt", weights_only=False)
+    assert ckpt["infos"]["num_actions"] == 20 and "estimator" in ckpt["infos"]
+    before = (log / "model_1.pt").read_bytes()
+
+    r = _run("ppo_newton.py", "--num-envs", "8", "--max-iterations", "2", "--log-dir", str(log),
+             "--resume", str(log / "model_1.pt"), "--save-interval", "1", "--no-export")  # fmt: skip
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "resumed from" in r.stdout
+    assert (log / "model_3.pt").is_file()
+    assert (log / "model_1.pt").read_bytes() == before  # the checkpoint resumed from is never rewritten
+    assert torch.load(log / "model_3.pt", weights_only=False)["iter"] == 3
+
+    # The exported onboard policy runs on a history of observations.
+    policy = torch.jit.load(str(log / "export" / "policy.pt"))
+    meta = json.loads((log / "export" / "policy.json").read_text())
+    out = policy(torch.zeros(2, meta["history_length"], meta["proprio_dim"]))
+    assert out.shape == (2, 20) and torch.isfinite(out).all()
+
+    # A fresh run into the same directory is refused (nothing already written is overwritten).
+    r = _run("ppo_newton.py", "--num-envs", "8", "--max-iterations", "1", "--log-dir", str(log))
+    assert r.returncode == 2 and "already holds checkpoints" in r.stderr
+
+    # A checkpoint of another layout is refused with a clear message.
+    r = _run("ppo_newton.py", "--preset", "baseline", "--num-envs", "8", "--max-iterations", "1",
+             "--log-dir", str(tmp_path / "other"), "--resume", str(log / "model_3.pt"))  # fmt: skip
+    assert r.returncode == 2 and "another observation/action layout" in r.stderr
+
+    out_json = tmp_path / "eval.json"
+    r = _run("evaluate.py", "--checkpoint", str(log / "model_3.pt"), "--tasks", "vx", "--num-envs", "4",
+             "--seconds", "3", "--json", str(out_json))  # fmt: skip
+    assert r.returncode == 0, r.stderr[-2000:]
+    res = json.loads(out_json.read_text())["results"][0]
+    assert res["task"] == "vx" and 0.0 <= res["upright"] <= 1.0 and res["mean_p_cost"] > 0
+
+
+def test_bad_arguments_exit_2(tmp_path):
+    r = _run("ppo_newton.py", "--num-envs", "0", "--log-dir", str(tmp_path / "x"))
+    assert r.returncode == 2 and "must be positive" in r.stderr
+    r = _run("ppo_newton.py", "--resume", str(tmp_path / "missing.pt"), "--log-dir", str(tmp_path / "y"))
+    assert r.returncode == 2 and "no such checkpoint" in r.stderr
+    r = _run("ppo_newton.py", "--help")
+    assert r.returncode == 0 and "--preset" in r.stdout and "--resume" in r.stdout and "torchrun" in r.stdout

@@ -1,0 +1,91 @@
+"""The paper's evaluation (Sec. IV-A): velocity tracking, energy, and push recovery of a trained policy.
+
+Tracking and energy: one command axis at a time (v_x in [-1, 1] m/s, v_y in [-0.7, 0.7] m/s, w in [-0.7, 0.7]
+rad/s), the others zero; robots get commands spread evenly over the range and hold them for the whole run. We
+report per task the mean squared and mean absolute tracking error (after a settling time), the mean p_cost
+(sum |tau| |qd| over 16 joints) [W], and the share of robots that never touched the ground with the trunk.
+
+Push recovery (Table III): random velocity impulses up to ``max_push`` along the trunk's x and y every
+``push_interval`` seconds; a robot recovers if its trunk never touches the ground.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+TASKS = {"vx": (0, (-1.0, 1.0)), "vy": (1, (-0.7, 0.7)), "wz": (2, (-0.7, 0.7)), "stand": (0, (0.0, 0.0))}
+"""Task -> (command axis, range) as evaluated in the paper."""
+
+
+@dataclass
+class EvalResult:
+    task: str
+    num_robots: int
+    seconds: float
+    mse: float
+    """Mean squared tracking error of the commanded axis [(m/s)^2 or (rad/s)^2]."""
+    mean_abs_error: float
+    """Mean absolute tracking error of the commanded axis [m/s or rad/s]."""
+    mean_p_cost: float
+    """Mean p_cost [W]."""
+    upright: float
+    """Share of robots whose trunk never touched the ground [-]."""
+    max_push: float = 0.0
+
+
+def spread_commands(task: str, n: int) -> torch.Tensor:
+    """(n, 3) commands with only the task's axis set, evenly spread over its range."""
+    axis, (lo, hi) = TASKS[task]
+    cmd = torch.zeros(n, 3)
+    cmd[:, axis] = torch.linspace(lo, hi, n) if n > 1 else torch.tensor([(lo + hi) / 2])
+    return cmd
+
+
+@torch.no_grad()
+def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: float = 0.0,
+             push_interval: float = 15.0, progress=None) -> EvalResult:  # fmt: skip
+    """Roll out ``runner.policy`` (``wqwarp.play.PolicyRunner``) on ``task`` for ``seconds``."""
+    if task not in TASKS:
+        raise ValueError(f"unknown task {task!r}; choose from {', '.join(TASKS)}")
+    env = runner.env
+    n = env.num_envs
+    env.cfg.commands.resampling_time = 1e9
+    env.max_episode_length = int(np.ceil((seconds + 1.0) / env.dt))
+    env.push_interval_steps = 0
+    obs = env.reset()
+    cmd = spread_commands(task, n).to(env.device)
+    env.set_commands(cmd)
+    axis = TASKS[task][0]
+    steps = int(round(seconds / env.dt))
+    settle_steps = int(round(settle / env.dt))
+    push_steps = int(round(push_interval / env.dt)) if max_push > 0 else 0
+    fell = torch.zeros(n, dtype=torch.bool, device=env.device)
+    sq, ab, power, count = (torch.zeros(n, device=env.device) for _ in range(4))
+    for k in range(steps):
+        if push_steps and k > 0 and k % push_steps == 0:
+            env.cfg.domain_rand.push_max_vel = max_push
+            env._push_robots()
+        obs, _, dones, _ = env.step(runner.policy(obs))
+        fell |= dones.bool()
+        env.set_commands(cmd)  # a reset after a fall resamples; keep the evaluation command
+        if k >= settle_steps:
+            b = env.base_state()
+            actual = b["lin_vel"][:, axis] if axis < 2 else b["ang_vel"][:, 2]
+            err = actual - cmd[:, axis]
+            sq += err**2
+            ab += err.abs()
+            power += env.tv["p_cost"]
+            count += 1
+        if progress is not None:
+            progress(k + 1, steps)
+    c = torch.clamp(count, min=1)
+    ok = ~fell
+    sel = ok if ok.any() else torch.ones_like(ok)
+    return EvalResult(
+        task=task, num_robots=n, seconds=seconds, mse=float((sq / c)[sel].mean()),
+        mean_abs_error=float((ab / c)[sel].mean()), mean_p_cost=float((power / c)[sel].mean()),
+        upright=float(ok.float().mean()), max_push=max_push,
+    )  # fmt: skip

@@ -1,0 +1,68 @@
+"""Load a trained checkpoint into an environment for evaluation, rollouts and export."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+from dataclasses import dataclass
+
+import torch
+
+from wqwarp.config import EnvConfig, TrainConfig, make_preset
+from wqwarp.env import WheeledGo1Env
+
+
+@dataclass
+class PolicyRunner:
+    """An environment and the deterministic policy of a checkpoint (``policy(obs) -> actions``)."""
+
+    env: WheeledGo1Env
+    policy: object
+    preset: str
+    iteration: int
+
+
+def checkpoint_preset(path: str) -> str | None:
+    """The preset recorded next to a checkpoint (``config.json`` of its run), if any."""
+    import json
+
+    cfg = os.path.join(os.path.dirname(os.path.abspath(path)), "config.json")
+    if os.path.isfile(cfg):
+        with open(cfg, encoding="utf-8") as f:
+            return json.load(f).get("args", {}).get("preset")
+    return None
+
+
+def make_env_config(preset: str, num_envs: int, device: str, evaluation: bool = True) -> EnvConfig:
+    """The preset's config for ``num_envs`` robots; ``evaluation`` turns domain randomisation and pushes off."""
+    cfg = make_preset(preset)
+    cfg.sim.num_envs = num_envs
+    cfg.sim.device = device
+    if evaluation:
+        cfg.domain_rand.enabled = False
+    return cfg
+
+
+def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, device: str = "cpu",
+                       cfg: EnvConfig | None = None) -> PolicyRunner:  # fmt: skip
+    """Build the environment of ``preset`` (default: the one recorded with the checkpoint) and load the policy and
+    estimator of ``checkpoint``. Raises ValueError for a missing file or another observation/action layout."""
+    from wqwarp.runner import WqRunner
+
+    if not os.path.isfile(checkpoint):
+        raise ValueError(f"no such checkpoint: {checkpoint}")
+    preset = preset or checkpoint_preset(checkpoint) or "no_predictor"
+    cfg = cfg or make_env_config(preset, num_envs, device)
+    env = WheeledGo1Env(cfg)
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner = WqRunner(env, TrainConfig().rsl_rl_dict(), log_dir=None, device=env.device)
+    runner.load(checkpoint)
+    policy = runner.get_inference_policy(device=env.device)
+    return PolicyRunner(env=env, policy=policy, preset=preset, iteration=int(runner.current_learning_iteration))
+
+
+@torch.no_grad()
+def act(runner: PolicyRunner, obs) -> torch.Tensor:
+    """Deterministic action of the policy for observations ``obs`` (a TensorDict)."""
+    return runner.policy(obs)
