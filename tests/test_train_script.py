@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 
+import pytest
 import torch
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -57,6 +58,18 @@ def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
     assert r.returncode == 0, r.stderr[-2000:]
     res = json.loads(out_json.read_text())["results"][0]
     assert res["task"] == "vx" and 0.0 <= res["upright"] <= 1.0 and res["mean_p_cost"] > 0
+
+    # The trained policy plays into a USD rollout (tools/export_usd.py --checkpoint).
+    usd = tmp_path / "policy.usda"
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "export_usd.py"), "--out", str(usd),
+                        "--checkpoint", str(log / "model_3.pt"), "--num-envs", "2", "--seconds", "1",
+                        "--command", "0.5,0,0"], capture_output=True, text=True, cwd=ROOT, timeout=600)  # fmt: skip
+    assert r.returncode == 0, r.stderr[-2000:]
+    from pxr import Usd
+
+    stage = Usd.Stage.Open(str(usd))
+    attr = stage.GetPrimAtPath("/World/robot_0").GetAttribute("wqwarp:command")
+    assert len(attr.GetTimeSamples()) == 51 and tuple(attr.Get(10)) == pytest.approx((0.5, 0.0, 0.0))
 
 
 def test_bad_arguments_exit_2(tmp_path):

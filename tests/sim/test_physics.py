@@ -136,3 +136,21 @@ def test_bad_config_is_rejected():
         SimConfig(backend="physx").validate()
     with pytest.raises(ValueError, match="num_envs"):
         SimConfig(num_envs=0).validate()
+
+
+@pytest.mark.parametrize("backend", ["mujoco_cpu", "mujoco_warp"])
+def test_added_trunk_mass_loads_the_wheels(backend):
+    sim = Simulator(SimConfig(num_envs=2, backend=backend))
+    sim.set_dynamics(friction=np.ones(2), restitution=np.zeros(2), added_mass=np.array([0.0, 2.0]))
+    _run(sim, 1.0)
+    load = sim.wheel_force.numpy().sum(1)
+    assert load[1] - load[0] == pytest.approx(2.0 * 9.81, rel=0.3)
+
+
+def test_low_friction_makes_the_wheels_slip():
+    sim = Simulator(SimConfig(num_envs=2))
+    sim.set_dynamics(friction=np.array([1.0, 0.05]), restitution=np.zeros(2), added_mass=np.zeros(2))
+    sim.wheel_qd_target.fill_(C.WHEEL_FORWARD_SIGN * 0.5 / C.WHEEL_RADIUS)
+    vx = np.array(_run(sim, 2.0, lambda s: _base_vel_body(s)[:, 0]))
+    assert vx[-1, 0] == pytest.approx(0.5, rel=0.1)
+    assert vx[:25, 1].mean() < 0.6 * vx[:25, 0].mean()  # on ice the base lags the spinning wheels
