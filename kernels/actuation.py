@@ -157,7 +157,8 @@ def launch_actuation(
     wheel_i_limit: float,
     dt: float,
     device=None,
-) -> None:
+    record_cmd: bool = False,
+):
     """Compute and apply the actuated-joint torques of every robot for one physics substep.
 
     All arrays are float32; ``W`` = world_count. Flat Newton arrays (``model.joint_q`` etc.) can be passed as
@@ -182,8 +183,9 @@ def launch_actuation(
         coord_index, dof_index: (16,) int32 column of each actuated joint (project order) in a world's
             ``joint_q`` / ``joint_qd`` row (``wqwarp.robot.RobotLayout``).
         device: Warp device to launch on (default: the arrays' device).
+        record_cmd: return the prepared launch instead of running it (replay it with ``.launch()``).
     """
-    wp.launch(
+    return wp.launch(
         apply_actuation,
         dim=joint_q.shape[0],
         inputs=[
@@ -206,6 +208,7 @@ def launch_actuation(
             wheel_prev_error,
         ],
         outputs=[joint_torque, joint_f],
+        record_cmd=record_cmd,
         device=device or joint_q.device,
     )
 

@@ -74,7 +74,8 @@ def launch_power(
     *,
     weight: float,
     device=None,
-) -> None:
+    record_cmd: bool = False,
+):
     """Accumulate one substep's power into the per-robot sums (``+=``; zero them at each policy step's start).
 
     All arrays are float32; ``W`` = world_count.
@@ -88,11 +89,13 @@ def launch_power(
         weight: scale of this substep's contribution, 1 / substeps [-].
         dof_index: (16,) int32 column of each actuated joint in a world's ``joint_qd`` row.
         device: Warp device to launch on (default: the arrays' device).
+        record_cmd: return the prepared launch instead of running it (replay it with ``.launch()``).
     """
-    wp.launch(
+    return wp.launch(
         accumulate_power,
         dim=joint_torque.shape[0],
         inputs=[joint_torque, joint_qd, dof_index, weight],
         outputs=[p_cost, p_mech, p_joule],
+        record_cmd=record_cmd,
         device=device or joint_torque.device,
     )

@@ -206,7 +206,8 @@ class TrainConfig:
     """rsl-rl PPO settings (legged_gym defaults unless noted)."""
 
     num_steps_per_env: int = 24
-    max_iterations: int = 1500
+    max_iterations: int = 4000
+    """PPO iterations (paper: 4000 epochs)."""
     save_interval: int = 50
     """Iterations between checkpoints."""
     actor_hidden_dims: tuple[int, ...] = (256, 128, 64)

@@ -176,6 +176,7 @@ class Simulator:
                 actuated_qd=wp.zeros((n, 16), dtype=f32),
             )
             self._default_q = robot.default_joint_q(lay)
+            self._actuation_cmds = self._record_actuation()
             if self.backend == "mujoco_cpu":
                 self._init_mujoco_cpu()
             else:
@@ -206,19 +207,25 @@ class Simulator:
         return out
 
     # --- stepping ---------------------------------------------------------------------------------------------
-    def _actuate(self) -> None:
-        """One substep's actuation kernel and power accumulation."""
+    def _record_actuation(self) -> list:
+        """Prepared launches of one substep's actuation and power kernels (packed once, replayed every substep)."""
         b, cfg = self.buf, self.cfg
-        actuation.launch_actuation(
+        act = actuation.launch_actuation(
             self.joint_q, self.joint_qd, b.leg_q_target, b.wheel_qd_target, b.torque_limit, b.motor_strength,
             b.wheel_integral, b.wheel_prev_error, b.joint_torque, self.joint_f, self.coord_index, self.dof_index,
             leg_kp=cfg.leg_kp, leg_kd=cfg.leg_kd, wheel_kp=cfg.wheel_kp, wheel_ki=cfg.wheel_ki, wheel_kd=cfg.wheel_kd,
-            wheel_i_limit=cfg.wheel_i_limit, dt=cfg.dt, device=self.device,
+            wheel_i_limit=cfg.wheel_i_limit, dt=cfg.dt, device=self.device, record_cmd=True,
         )  # fmt: skip
-        power.launch_power(
+        pwr = power.launch_power(
             b.joint_torque, self.joint_qd, b.p_cost, b.p_mech, b.p_joule, self.dof_index,
-            weight=1.0 / cfg.decimation, device=self.device,
+            weight=1.0 / cfg.decimation, device=self.device, record_cmd=True,
         )  # fmt: skip
+        return [act, pwr]
+
+    def _actuate(self) -> None:
+        """One substep's actuation kernel and power accumulation."""
+        for cmd in self._actuation_cmds:
+            cmd.launch()
 
     def step(self, actuate: bool = True) -> None:
         """Advance one policy step: ``decimation`` substeps of actuation + physics, then body poses and contacts.
@@ -372,6 +379,12 @@ class Simulator:
         self._wheel_found_wp = wp.array(self._wheel_found_col, dtype=wp.int32)
         self._body_found_wp = wp.array(self._body_found_col, dtype=wp.int32)
         self._qfrc_spec = mujoco.mjtState.mjSTATE_QFRC_APPLIED.value
+        # Mirror MuJoCo state -> Newton joint_q / joint_qd, one prepared launch per state buffer.
+        self._mirror_cmds = [
+            wp.launch(mujoco_state_to_newton, dim=n, inputs=[s, self._mj_qpos_start, self._root_com],
+                      outputs=[self.joint_q, self.joint_qd], device=self.device, record_cmd=True)
+            for s in self._mj_state_wp
+        ]  # fmt: skip
 
     def _step_mujoco_cpu(self, actuate: bool) -> None:
         for _ in range(self.cfg.decimation):
@@ -384,9 +397,7 @@ class Simulator:
                 nstep=1, state=dst, sensordata=self._sensordata, skip_checks=True,
             )  # fmt: skip
             self._parity = 1 - self._parity
-            wp.launch(mujoco_state_to_newton, dim=self.num_envs, inputs=[self._mj_state_wp[self._parity],
-                      self._mj_qpos_start, self._root_com], outputs=[self.joint_q, self.joint_qd],
-                      device=self.device)  # fmt: skip
+            self._mirror_cmds[self._parity].launch()
         import newton
 
         newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state)
