@@ -33,13 +33,13 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("runs", nargs="+", help="run directories written by train/ppo_newton.py")
     ap.add_argument("--out", required=True, help="output PNG")
-    ap.add_argument("--labels", default=None, help="comma-separated legend labels (default: directory names)")
+    ap.add_argument("--labels", default=None, help="semicolon-separated legend labels (default: directory names)")
     args = ap.parse_args(argv)
     for r in args.runs:
         if not os.path.isdir(r):
             print(f"error: no such run directory {r!r}", file=sys.stderr)
             return 2
-    labels = args.labels.split(",") if args.labels else [os.path.basename(os.path.normpath(r)) for r in args.runs]
+    labels = args.labels.split(";") if args.labels else [os.path.basename(os.path.normpath(r)) for r in args.runs]
     if len(labels) != len(args.runs):
         print("error: --labels needs one label per run", file=sys.stderr)
         return 2
