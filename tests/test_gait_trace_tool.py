@@ -49,3 +49,23 @@ def test_bad_arguments_exit_2_without_writing(tmp_path):
     r = _run("--gait", "trotting", "--csv", str(tmp_path / "missing_dir" / "a.csv"))
     assert r.returncode == 2 and "does not exist" in r.stderr
     assert not any(tmp_path.iterdir())
+
+
+def test_plot_eval_draws_fig4_and_rejects_bad_input(tmp_path):
+    import json
+
+    res = {"preset": "no_predictor", "results": [
+        {"task": t, "mse": m, "mean_p_cost": p} for t, m, p in (("vx", 0.01, 100.0), ("vy", 0.1, 60.0))]}  # fmt: skip
+    f = tmp_path / "eval.json"
+    f.write_text(json.dumps(res))
+    out = tmp_path / "fig4.png"
+    tool = os.path.join(ROOT, "tools", "plot_eval.py")
+    r = subprocess.run([sys.executable, tool, str(f), "--out", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert out.stat().st_size > 1000
+    bad = tmp_path / "bad.json"
+    bad.write_text("{")
+    r = subprocess.run(
+        [sys.executable, tool, str(bad), "--out", str(tmp_path / "x.png")], capture_output=True, text=True
+    )
+    assert r.returncode == 2 and "cannot read" in r.stderr
