@@ -19,6 +19,7 @@ the power metrics (``wqwarp.kernels.power``) averaged over the substeps of one p
 
 from __future__ import annotations
 
+import logging
 import os
 import tempfile
 import warnings
@@ -342,12 +343,16 @@ class Simulator:
 
         cfg = self.cfg
         template = robot.scene_builder(1).finalize(device="cpu")
+        log = logging.getLogger("newton")
+        level = log.level
         with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
             warnings.simplefilter("ignore")
+            log.setLevel(logging.WARNING)  # Newton logs the temporary MJCF path at INFO
             path = os.path.join(tmp, "wheeled_go1.xml")
             newton.solvers.SolverMuJoCo(template, use_mujoco_cpu=True, save_to_mjcf=path,
                                         iterations=cfg.solver_iterations, ls_iterations=cfg.ls_iterations)  # fmt: skip
             spec = mujoco.MjSpec.from_file(path)
+            log.setLevel(level)
         self._wheel_found_col, self._body_found_col = _add_contact_sensors(spec, mujoco)
         m = spec.compile()
         m.opt.timestep = cfg.dt
