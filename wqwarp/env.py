@@ -151,6 +151,10 @@ class WheeledGo1Env(VecEnv):
         self.estimator_trainer = EstimatorTrainer(self.estimator, cfg.estimator.learning_rate, cfg.estimator.epochs,
                                                   cfg.estimator.batch_size, estimator_interval)  # fmt: skip
         self.estimate = torch.zeros(n, 3, device=dev)
+        o = cfg.obs
+        self._down = torch.tensor([[0.0, 0.0, -1.0]], device=dev)
+        self._command_scale = torch.tensor([o.lin_vel_scale, o.lin_vel_scale, o.ang_vel_scale], device=dev)
+        self._estimate_scale = torch.tensor([o.lin_vel_scale, o.lin_vel_scale, 1.0], device=dev)
         self.extras: dict = {}
         self._reset_envs(torch.arange(n, device=dev))
         self._obs = self._compute_observations()
@@ -169,7 +173,7 @@ class WheeledGo1Env(VecEnv):
             "lin_vel": quat_rotate_inv(q, qd[:, 0:3]),
             "ang_vel": quat_rotate_inv(q, qd[:, 3:6]),
             "height": self.tv["joint_q"][:, 2],
-            "gravity": quat_rotate_inv(q, torch.tensor([[0.0, 0.0, -1.0]], device=self.device).expand(len(q), 3)),
+            "gravity": quat_rotate_inv(q, self._down.expand(len(q), 3)),
         }
 
     # --- rsl-rl interface -----------------------------------------------------------------------------------------
@@ -191,7 +195,8 @@ class WheeledGo1Env(VecEnv):
         dones = died | time_out
         self.prev2_actions[:] = self.prev_actions
         self.prev_actions[:] = self.actions
-        self.extras = {"time_outs": time_out.clone(), "log": self._step_metrics()}
+        # Metrics see the state before resets; the observations below re-read it after resets and pushes.
+        self.extras = {"time_outs": time_out.clone(), "log": self._step_metrics(self.base_state())}
         done_ids = dones.nonzero(as_tuple=False).flatten()
         if len(done_ids):
             self.extras["log"].update(self._episode_log(done_ids))
@@ -237,8 +242,7 @@ class WheeledGo1Env(VecEnv):
                   device=sim.device)  # fmt: skip
         return self.reward_buf
 
-    def _step_metrics(self) -> dict:
-        b = self.base_state()
+    def _step_metrics(self, b: dict) -> dict:
         err = torch.abs(b["lin_vel"][:, :2] - self.commands[:, :2])
         werr = torch.abs(b["ang_vel"][:, 2] - self.commands[:, 2])
         return {
@@ -351,7 +355,7 @@ class WheeledGo1Env(VecEnv):
         grav = b["gravity"] + self._noise((n, 3), o.noise_gravity)
         leg = q[:, :12] - self.default_leg_q + self._noise((n, 12), o.noise_joint_pos)
         vel = (qd + self._noise((n, 16), o.noise_joint_vel)) * o.joint_vel_scale
-        cmd = self.commands * torch.tensor([o.lin_vel_scale, o.lin_vel_scale, o.ang_vel_scale], device=self.device)
+        cmd = self.commands * self._command_scale
         proprio = torch.cat([ang, grav, leg, vel, self._gait_obs(), cmd, self.prev_actions, self.prev2_actions], 1)
         # History of proprioceptive observations -> estimator -> z_t.
         self.history = torch.roll(self.history, shifts=-1, dims=1)
@@ -366,7 +370,7 @@ class WheeledGo1Env(VecEnv):
             with torch.no_grad():
                 z = self.estimator(hist)
         self.estimate = z.detach()
-        zs = z * torch.tensor([o.lin_vel_scale, o.lin_vel_scale, 1.0], device=self.device)
+        zs = z * self._estimate_scale
         split = 3 + 3 + 12 + 16 + 18
         actor = torch.cat([proprio[:, :split], zs, proprio[:, split:]], 1)
         gid = torch.nn.functional.one_hot(self.gait_id, len(GAIT_LIBRARY)).float()
