@@ -3,6 +3,7 @@ of the onboard policy (estimator + actor) to TorchScript and ONNX."""
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 
@@ -12,6 +13,7 @@ from torch import nn
 
 from wqwarp import __version__
 from wqwarp.config import to_dict
+from wqwarp.constants import ACTUATED_JOINT_NAMES
 from wqwarp.env import WheeledGo1Env, observation_layout
 
 CHECKPOINT_FORMAT = 1
@@ -89,8 +91,6 @@ def export_onboard_policy(runner: WqRunner, out_dir: str) -> dict[str, str]:
     env = runner.env
     os.makedirs(out_dir, exist_ok=True)
     actor = runner.alg.get_policy().as_jit().to("cpu").eval()
-    import copy
-
     estimator = copy.deepcopy(env.estimator).to("cpu").eval()
     split = 3 + 3 + 12 + 16 + 18
     s = env.cfg.obs.lin_vel_scale
@@ -114,7 +114,7 @@ def export_onboard_policy(runner: WqRunner, out_dir: str) -> dict[str, str]:
         "observation_layout_with_estimate": observation_layout(env.num_actions),
         "estimate_inserted_at": split,
         "policy_dt": env.dt,
-        "joint_order": list(__import__("wqwarp.constants", fromlist=["x"]).ACTUATED_JOINT_NAMES),
+        "joint_order": list(ACTUATED_JOINT_NAMES),
         "env_cfg": to_dict(env.cfg),
     }
     with open(paths["json"], "w", encoding="utf-8") as f:
