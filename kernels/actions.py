@@ -2,7 +2,7 @@
 
 Residual presets (20 actions: dphi (4), dp (12, x y z per leg), dv (4))::
 
-    p_des = p_n + clip(s_p a_p, +-c_p)  -> leg IK -> q_des (leg PD)
+    p_des = p_n + clip(s_p a_p, +-c_p)  -> foot IK -> q_des (leg PD)    p: foot point (calf end), hip frame
     v_des = clip([v_n] + s_v a_v, +-c_v)                 (wheel PID; v_n only with nominal wheel velocities)
 
 Baseline (16 actions: joint offsets (12), wheel speeds (4)): q_des = q_default + s_q a_q, v_des = clip(s_v a_v).
@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import warp as wp
 
-from .kinematics import LEG_SIDE, leg_ik
+from .kinematics import LEG_SIDE, foot_ik
 
 
 @wp.kernel
 def residual_targets(
     action: wp.array2d(dtype=wp.float32),
-    wheel_target: wp.array2d(dtype=wp.vec3),
+    foot_target: wp.array2d(dtype=wp.vec3),
     nominal_wheel_velocity: wp.array2d(dtype=wp.float32),
     use_nominal_wheels: int,
     foot_scale: float,
@@ -30,14 +30,14 @@ def residual_targets(
     leg_q_target: wp.array2d(dtype=wp.float32),
     wheel_qd_target: wp.array2d(dtype=wp.float32),
 ):
-    """Per (world, leg): desired wheel centre p_n + dp in the hip frame [m] -> IK -> 3 joint targets [rad]; wheel
+    """Per (world, leg): desired foot point p_n + dp in the hip frame [m] -> IK -> 3 joint targets [rad]; wheel
     speed target [rad/s]. Action columns: 4 + 3 leg + axis for dp, 16 + leg for dv."""
     world, leg = wp.tid()
     dp = wp.vec3(0.0, 0.0, 0.0)
     for k in range(3):
         dp[k] = wp.clamp(foot_scale * action[world, 4 + 3 * leg + k], -foot_clip, foot_clip)
     foot_residual[world, leg] = dp
-    q = leg_ik(wheel_target[world, leg] + dp, LEG_SIDE[leg])
+    q = foot_ik(foot_target[world, leg] + dp, LEG_SIDE[leg])
     for k in range(3):
         leg_q_target[world, 3 * leg + k] = q[k]
     v = wheel_scale * action[world, 16 + leg]

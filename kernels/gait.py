@@ -2,32 +2,35 @@
 
 References:
     Paper, "Augmented Nominal Gait Design": Eq. (1) phase update, Eq. (2) swing height F(psi), Eq. (3) nominal
-    wheel velocity, Table I gait library (``wqwarp.gaits``).
+    wheel velocity, Table I gait library (``wqwarp.gaits``). Where the paper is silent, the conventions of the
+    authors' public trajectory generator (xu-yang16/wheeled-quadruped-sim2sim ``sim/policy_manager/PMTG.py``,
+    config ``sim/policy_manager/policy_config/my_legged_robot_config.py``), cited in ``wqwarp.constants``.
 
-Per leg i (FR, FL, RR, RL) and policy step::
+Per leg i (FR, FL, RR, RL) and policy step, with the gait clock c_i and the policy's phase residual dphi_i::
 
-    phi_i <- (phi_i + f dt + dphi_i) mod 1                       Eq. (1), dphi_i = the policy's phase residual
+    increment mode:  c_i <- (c_i + f dt + dphi_i) mod 1,  phi_i = c_i        Eq. (1), residual accumulated
+    offset mode:     c_i <- (c_i + f dt) mod 1,  phi_i = (c_i + dphi_i) mod 1   PMTG.py: phi = phi0 + f t + dphi
     swing  while phi_i < DF_swing, psi = phi_i / DF_swing in [0, 1); stance otherwise
-    p_n,i = (0, side 0.1045, F(psi))  in the hip frame            Eq. (2); F = -h_b in stance
-    q_n,i = IK(p_n,i)
+    p_n,i = (x_i + x_gait + x_swing(psi), y_i, F(psi))  foot point (calf end) in the hip frame, Eq. (2) for z
+    q_n,i = foot IK(p_n,i)
     v_n,i = (v_x - d_i w_z) / R  if the wheel touches the ground, else the previous v_n,i     Eq. (3)
 
-Nominal placement: the paper keeps the wheel "fixed relative to the hip link frame, determined solely by the body
-height h_b". We put it straight below the hip joint (x = 0) at the lateral offset of the straight leg,
-y = side (0.08 + 0.0245) = side 0.1045 m, so the nominal stance has zero abduction and its IK is
-``constants.DEFAULT_LEG_ANGLES``. Only z moves (Eq. (2)); the policy's residuals move x and y.
+Nominal placement (PMTG.py): the foot point is the calf end, h_b is measured there; (x_i, y_i) =
+``constants.NOMINAL_FOOT_XY``; x_gait = the gait's ``stance_x`` (driving: -0.05 m, PMTG.py's driving branch);
+x_swing = -0.05 sin(2 pi psi) during swing (0 in stance). d_i in Eq. (3) is the measured wheel-centre y in the base
+frame (the wheel sits inboard of the calf, ``constants.WHEEL_CENTER_IN_CALF``).
 
 Gait switching (the requested gait ``gait_id`` may change at any policy step): each world keeps an
 ``active_gait_id``. A request that differs from it is applied at the first step at which no leg of the active gait
-is in swing (all phases >= DF_swing; immediately for driving, whose legs never swing). The phases are then re-based
-to the new gait's offsets at the start of one of its all-stance windows: phi_i = (r + offset_i) mod 1 with
+is in swing (all phases >= DF_swing; immediately for driving, whose legs never swing). The clocks are then re-based
+to the new gait's offsets at the start of one of its all-stance windows: c_i = (r + offset_i) mod 1 with
 r = DF_swing - offset_k for the first leg k for which every leg is then in stance (leg k has just landed). Before
-and after the re-base every leg is in stance at z = -h_b, so the wheel-centre target stays continuous: its largest
-per-step change is the ordinary one, |dF/dpsi| * dpsi <= 3 h_s (f dt + |dphi|) / DF_swing, with or without
-switches. A pending request waits at most about one cycle of the active gait (longer only if phase residuals step
-over an all-stance window); requesting the active gait again cancels it. Accumulated phase residuals are dropped at
-a re-base. Every Table I gait has an all-stance window (tested); a gait without one is re-based at r = DF - offset_0
-and its other legs may jump. Observations (f, DF_swing) should read the active gait, not the requested one.
+and after the re-base every leg is in stance at z = -h_b, so the foot height target stays continuous (in increment
+mode; in offset mode a nonzero residual is added after the re-base); the stance x moves by the difference of the two
+gaits' ``stance_x`` (0.05 m between driving and the legged gaits). A pending request waits at most about one cycle
+of the active gait; requesting the active gait again cancels it. Every Table I gait has an all-stance window
+(tested); a gait without one is re-based at r = DF - offset_0 and its other legs may jump. Observations (f,
+DF_swing) should read the active gait, not the requested one.
 """
 
 from __future__ import annotations
@@ -38,10 +41,15 @@ import warp as wp
 
 from wqwarp import constants
 
-from .kinematics import LEG_LATERAL_OFFSET, LEG_SIDE, leg_fk, leg_ik
+from .kinematics import LEG_SIDE, foot_ik, leg_fk
 
-NOMINAL_WHEEL_X = wp.constant(0.0)
-"""x of the nominal wheel centre in the hip frame [m]: straight below the hip joint."""
+NOMINAL_FOOT_X = wp.constant(wp.vec4(*[float(xy[0]) for xy in constants.NOMINAL_FOOT_XY]))
+"""x of each leg's nominal stance foot point in its hip frame [m], legs FR, FL, RR, RL (PMTG.py)."""
+NOMINAL_FOOT_Y = wp.constant(wp.vec4(*[float(xy[1]) for xy in constants.NOMINAL_FOOT_XY]))
+"""y of each leg's nominal foot point in its hip frame [m] (signed; PMTG.py)."""
+PHASE_INCREMENT = wp.constant(0)
+PHASE_OFFSET = wp.constant(1)
+"""Phase-residual readings: accumulated into the clock every step, or an offset from the gait clock."""
 HIP_OFFSET_Y = wp.constant(float(constants.HIP_OFFSET_Y))
 """|y| of the hip joint in the base (trunk) frame [m]."""
 WHEEL_RADIUS = wp.constant(float(constants.WHEEL_RADIUS))
@@ -99,6 +107,18 @@ def swing_height(psi: float, h_b: float, h_s: float) -> float:
 
 
 @wp.func
+def swing_x(psi: float, amplitude: float) -> float:
+    """Horizontal swing offset of the foot point [m]: -amplitude sin(2 pi psi) in swing (psi in [0, 1)), 0 in stance.
+
+    PMTG.py (authors' generator): the foot moves back at lift-off and forward before touch-down, amplitude
+    ``max_horizontal_offset`` 0.05 m; the paper's Eq. (2) only gives z.
+    """
+    if psi < 0.0:
+        return 0.0
+    return -amplitude * wp.sin(2.0 * wp.pi * psi)
+
+
+@wp.func
 def nominal_wheel_velocity(vx: float, wz: float, d: float, radius: float, forward_sign: float) -> float:
     """Eq. (3) nominal wheel velocity v_n = forward_sign (v_x - d w_z) / R [rad/s].
 
@@ -133,10 +153,11 @@ def apply_gait_switch(
     phase_offsets: wp.array2d(dtype=float),
     df_swing: wp.array(dtype=float),
     # outputs
+    clock: wp.array2d(dtype=float),
     phase: wp.array2d(dtype=float),
     active_gait_id: wp.array(dtype=wp.int32),
 ):
-    """Per world: apply a requested gait once no leg of the active gait is in swing, re-basing the phases."""
+    """Per world: apply a requested gait once no leg of the active gait is in swing, re-basing the clocks."""
     world = wp.tid()
     new = gait_id[world]
     old = active_gait_id[world]
@@ -148,7 +169,8 @@ def apply_gait_switch(
     offsets = wp.vec4(phase_offsets[new, 0], phase_offsets[new, 1], phase_offsets[new, 2], phase_offsets[new, 3])
     r = stance_reference_phase(offsets, df_swing[new])
     for leg in range(4):
-        phase[world, leg] = wrap_phase(r + offsets[leg])
+        clock[world, leg] = wrap_phase(r + offsets[leg])
+        phase[world, leg] = clock[world, leg]
     active_gait_id[world] = new
 
 
@@ -159,17 +181,19 @@ def reset_gait_phases(
     phase_offsets: wp.array2d(dtype=float),
     df_swing: wp.array(dtype=float),
     # outputs
+    clock: wp.array2d(dtype=float),
     phase: wp.array2d(dtype=float),
     active_gait_id: wp.array(dtype=wp.int32),
     wheel_velocity: wp.array2d(dtype=float),
 ):
-    """For each world in env_ids: make gait_id active, phases at an all-stance point of it, wheel targets 0."""
+    """For each world in env_ids: make gait_id active, clocks and phases at an all-stance point of it, wheels 0."""
     world = env_ids[wp.tid()]
     g = gait_id[world]
     offsets = wp.vec4(phase_offsets[g, 0], phase_offsets[g, 1], phase_offsets[g, 2], phase_offsets[g, 3])
     r = stance_reference_phase(offsets, df_swing[g])
     for leg in range(4):
-        phase[world, leg] = wrap_phase(r + offsets[leg])
+        clock[world, leg] = wrap_phase(r + offsets[leg])
+        phase[world, leg] = clock[world, leg]
         wheel_velocity[world, leg] = 0.0
     active_gait_id[world] = g
 
@@ -180,6 +204,7 @@ def compute_nominal_gait(
     active_gait_id: wp.array(dtype=wp.int32),
     df_swing: wp.array(dtype=float),
     frequency: wp.array(dtype=float),
+    stance_x: wp.array(dtype=float),
     command: wp.array2d(dtype=float),
     phase_residual: wp.array2d(dtype=float),
     leg_joint_pos: wp.array2d(dtype=float),
@@ -187,26 +212,39 @@ def compute_nominal_gait(
     dt: float,
     h_b: float,
     h_s: float,
+    swing_x_amplitude: float,
+    phase_mode: int,
     # outputs
+    clock: wp.array2d(dtype=float),
     phase: wp.array2d(dtype=float),
     swing_psi: wp.array2d(dtype=float),
-    wheel_target: wp.array2d(dtype=wp.vec3),
+    foot_target: wp.array2d(dtype=wp.vec3),
     leg_joint_target: wp.array2d(dtype=float),
     wheel_velocity: wp.array2d(dtype=float),
 ):
-    """Per (world, leg): Eq. (1) phase, swing progress, Eq. (2) wheel-centre target and its IK, Eq. (3) wheel speed."""
+    """Per (world, leg): Eq. (1) clock and phase, swing progress, Eq. (2) foot target and its IK, Eq. (3) wheel
+    speed. ``phase_mode``: PHASE_INCREMENT (0) or PHASE_OFFSET (1), see the module docstring."""
     world, leg = wp.tid()
     g = active_gait_id[world]
     side = LEG_SIDE[leg]
 
-    phi = phase_update(phase[world, leg], frequency[g], dt, phase_residual[world, leg])
+    dphi = phase_residual[world, leg]
+    phi = float(0.0)
+    if phase_mode == PHASE_OFFSET:
+        c = phase_update(clock[world, leg], frequency[g], dt, 0.0)
+        clock[world, leg] = c
+        phi = wrap_phase(c + dphi)
+    else:
+        phi = phase_update(clock[world, leg], frequency[g], dt, dphi)
+        clock[world, leg] = phi
     psi = swing_progress(phi, df_swing[g])
-    p_n = wp.vec3(NOMINAL_WHEEL_X, side * LEG_LATERAL_OFFSET, swing_height(psi, h_b, h_s))
-    q_n = leg_ik(p_n, side)
+    x = NOMINAL_FOOT_X[leg] + stance_x[g] + swing_x(psi, swing_x_amplitude)
+    p_n = wp.vec3(x, NOMINAL_FOOT_Y[leg], swing_height(psi, h_b, h_s))
+    q_n = foot_ik(p_n, side)
 
     phase[world, leg] = phi
     swing_psi[world, leg] = psi
-    wheel_target[world, leg] = p_n
+    foot_target[world, leg] = p_n
     for j in range(3):
         leg_joint_target[world, 3 * leg + j] = q_n[j]
 
@@ -220,20 +258,26 @@ def compute_nominal_gait(
 
 
 # --- Python side ---------------------------------------------------------------------------------------------------
+PHASE_MODES = ("increment", "offset")
+"""Names of the phase-residual readings, index = the kernel's ``phase_mode``."""
+
+
 @dataclass
 class NominalGaitState:
     """Buffers of the nominal gait for world_count worlds, allocated once (legs FR, FL, RR, RL)."""
 
+    clock: wp.array2d
+    """(world_count, 4) float32 gait clocks c in [0, 1) [cycles] (state; equal to ``phase`` in increment mode)."""
     phase: wp.array2d
-    """(world_count, 4) float32 leg phases phi in [0, 1) [cycles] (state)."""
+    """(world_count, 4) float32 leg phases phi in [0, 1) [cycles]."""
     active_gait_id: wp.array
     """(world_count,) int32 gait id in effect; lags the requested gait until a switch is applied (state)."""
     wheel_velocity: wp.array2d
     """(world_count, 4) float32 nominal wheel velocities v_n [rad/s] (state: kept while a wheel is in the air)."""
     swing_psi: wp.array2d
     """(world_count, 4) float32 swing progress psi in [0, 1), -1 in stance [-]."""
-    wheel_target: wp.array2d
-    """(world_count, 4) vec3 nominal wheel-centre targets p_n in each hip frame [m]."""
+    foot_target: wp.array2d
+    """(world_count, 4) vec3 nominal foot-point (calf end) targets p_n in each hip frame [m]."""
     leg_joint_target: wp.array2d
     """(world_count, 12) float32 nominal leg joint targets IK(p_n) [rad]."""
 
@@ -242,11 +286,12 @@ class NominalGaitState:
         """Zeroed buffers; call :func:`reset_nominal_gait` before the first step."""
         n, legs = world_count, constants.NUM_LEGS
         return cls(
+            clock=wp.zeros((n, legs), dtype=float, device=device),
             phase=wp.zeros((n, legs), dtype=float, device=device),
             active_gait_id=wp.zeros(n, dtype=wp.int32, device=device),
             wheel_velocity=wp.zeros((n, legs), dtype=float, device=device),
             swing_psi=wp.zeros((n, legs), dtype=float, device=device),
-            wheel_target=wp.zeros((n, legs), dtype=wp.vec3, device=device),
+            foot_target=wp.zeros((n, legs), dtype=wp.vec3, device=device),
             leg_joint_target=wp.zeros((n, constants.NUM_LEG_JOINTS), dtype=float, device=device),
         )
 
@@ -262,7 +307,7 @@ def reset_nominal_gait(state: NominalGaitState, env_ids: wp.array, gait_id: wp.a
         reset_gait_phases,
         dim=env_ids.shape[0],
         inputs=[env_ids, gait_id, gaits.phase_offsets, gaits.df_swing],
-        outputs=[state.phase, state.active_gait_id, state.wheel_velocity],
+        outputs=[state.clock, state.phase, state.active_gait_id, state.wheel_velocity],
         device=state.phase.device,
     )
 
@@ -278,6 +323,8 @@ def step_nominal_gait(
     dt: float,
     h_b: float = constants.NOMINAL_BODY_HEIGHT,
     h_s: float = constants.NOMINAL_SWING_HEIGHT,
+    swing_x_amplitude: float = constants.MAX_HORIZONTAL_OFFSET,
+    phase_mode: str = "increment",
 ) -> None:
     """Advance the nominal gait by one policy step (gait switch, then :func:`compute_nominal_gait`), in place.
 
@@ -290,16 +337,20 @@ def step_nominal_gait(
         leg_joint_pos: (world_count, 12) float32 measured leg joint positions [rad] (for d in Eq. (3)).
         contact: (world_count, 4) int32 wheel ground contact, nonzero = in contact.
         dt: policy step [s].
-        h_b: nominal body height [m].
+        h_b: nominal body height, foot point below the hip [m].
         h_s: swing height [m].
+        swing_x_amplitude: horizontal swing amplitude [m] (authors' generator: 0.05).
+        phase_mode: ``"increment"`` (residual accumulated into the clock) or ``"offset"`` (offset from the clock).
     """
+    if phase_mode not in PHASE_MODES:
+        raise ValueError(f"unknown phase_mode {phase_mode!r}; choose one of {', '.join(PHASE_MODES)}")
     world_count = state.phase.shape[0]
     device = state.phase.device
     wp.launch(
         apply_gait_switch,
         dim=world_count,
         inputs=[gait_id, gaits.phase_offsets, gaits.df_swing],
-        outputs=[state.phase, state.active_gait_id],
+        outputs=[state.clock, state.phase, state.active_gait_id],
         device=device,
     )
     wp.launch(
@@ -309,6 +360,7 @@ def step_nominal_gait(
             state.active_gait_id,
             gaits.df_swing,
             gaits.frequency,
+            gaits.stance_x,
             command,
             phase_residual,
             leg_joint_pos,
@@ -316,7 +368,16 @@ def step_nominal_gait(
             float(dt),
             float(h_b),
             float(h_s),
+            float(swing_x_amplitude),
+            PHASE_MODES.index(phase_mode),
         ],
-        outputs=[state.phase, state.swing_psi, state.wheel_target, state.leg_joint_target, state.wheel_velocity],
+        outputs=[
+            state.clock,
+            state.phase,
+            state.swing_psi,
+            state.foot_target,
+            state.leg_joint_target,
+            state.wheel_velocity,
+        ],
         device=device,
     )

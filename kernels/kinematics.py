@@ -1,4 +1,4 @@
-"""Leg forward and inverse kinematics of the wheeled Go1, wheel centre in the hip frame.
+"""Leg forward and inverse kinematics of the wheeled Go1 for a point fixed to the calf, in the hip frame.
 
 The hip frame sits at the hip (abduction) joint origin with the trunk's axes (before the abduction rotation).
 Chain of one leg, the same for all legs with ``side`` = +1 for a left leg and -1 for a right leg
@@ -7,10 +7,16 @@ Chain of one leg, the same for all legs with ``side`` = +1 for a left leg and -1
     hip joint    rotates about x at the hip-frame origin                     (q_hip)
     thigh joint  at (0, side * 0.08, 0) in the hip body, rotates about y    (q_thigh)
     knee joint   at (0, 0, -0.213) in the thigh frame, rotates about y      (q_calf)
-    wheel centre at (-0.015, side * 0.0245, -0.233) in the calf frame
+    point c      at (c_x, side * c_y, c_z) in the calf frame (c given for a left leg)
+
+Two points matter: the **wheel centre** ``WHEEL_POINT`` = (-0.015, -0.0245, -0.233) (inboard; where the wheel
+touches the ground, used for Eq. (3)'s lateral distance d) and the **foot point** ``FOOT_POINT`` = (0, 0, -0.213),
+the calf end that the authors' trajectory generator places with its IK (the nominal gait and the policy's foot
+residuals refer to it). ``leg_fk`` / ``leg_ik`` are the wheel-centre versions, ``foot_fk`` / ``foot_ik`` the foot
+point's; ``leg_point_fk`` / ``leg_point_ik`` take any point.
 
 References:
-    Go1 geometry: ``wqwarp.constants`` (MuJoCo Menagerie ``go1.xml`` and the authors' wheeled-Go1 harness).
+    Go1 geometry: ``wqwarp.constants`` (MuJoCo Menagerie ``go1.xml`` and the authors' wheeled-Go1 model).
 """
 
 from __future__ import annotations
@@ -27,18 +33,12 @@ THIGH_OFFSET_Y = wp.constant(float(constants.THIGH_OFFSET_Y))
 """|y| of the thigh joint from the hip joint [m]."""
 THIGH_LENGTH = wp.constant(float(constants.THIGH_LENGTH))
 """Knee below the thigh joint [m]."""
-WHEEL_IN_CALF_X = wp.constant(float(constants.WHEEL_CENTER_IN_CALF[0]))
-"""x of the wheel centre in the calf frame [m]."""
-WHEEL_IN_CALF_Y = wp.constant(float(abs(constants.WHEEL_CENTER_IN_CALF[1])))
-"""|y| of the wheel centre in the calf frame [m] (sign = side)."""
-WHEEL_IN_CALF_Z = wp.constant(float(constants.WHEEL_CENTER_IN_CALF[2]))
-"""z of the wheel centre in the calf frame [m]."""
-LEG_LATERAL_OFFSET = wp.constant(float(constants.THIGH_OFFSET_Y + abs(constants.WHEEL_CENTER_IN_CALF[1])))
-"""|y| of the wheel centre from the hip joint in the hip body frame, 0.08 + 0.0245 = 0.1045 [m]."""
-CALF_REACH = wp.constant(float(math.hypot(constants.WHEEL_CENTER_IN_CALF[0], constants.WHEEL_CENTER_IN_CALF[2])))
-"""Distance from the knee to the wheel centre in the calf's x-z plane [m]."""
-CALF_ANGLE = wp.constant(float(math.atan2(-constants.WHEEL_CENTER_IN_CALF[2], constants.WHEEL_CENTER_IN_CALF[0])))
-"""gamma = atan2(-c_z, c_x) of the wheel centre in the calf frame [rad]: c_x sin q - c_z cos q = L2 sin(q + gamma)."""
+WHEEL_POINT = wp.constant(wp.vec3(*[float(x) for x in constants.WHEEL_CENTER_IN_CALF]))
+"""Wheel centre in the calf frame of a left leg [m] (y mirrored on right legs)."""
+FOOT_POINT = wp.constant(wp.vec3(*[float(x) for x in constants.FOOT_IN_CALF]))
+"""Foot point (calf end) in the calf frame [m]."""
+LEG_LATERAL_OFFSET = wp.constant(float(constants.THIGH_OFFSET_Y + constants.WHEEL_CENTER_IN_CALF[1]))
+"""|y| of the wheel centre from the hip joint in the hip body frame, 0.08 - 0.0245 = 0.0555 [m]."""
 
 HIP_LOWER = wp.constant(float(constants.HIP_RANGE[0]))
 HIP_UPPER = wp.constant(float(constants.HIP_RANGE[1]))
@@ -61,22 +61,22 @@ def wrap_angle(a: float, lower: float) -> float:
 
 
 @wp.func
-def leg_fk(q: wp.vec3, side: float) -> wp.vec3:
-    """Leg forward kinematics: wheel centre [m] in the hip frame from (hip, thigh, calf) angles q [rad].
+def leg_point_fk(q: wp.vec3, side: float, c: wp.vec3) -> wp.vec3:
+    """Forward kinematics of the calf point c [m] (left-leg convention) in the hip frame from (hip, thigh, calf) q.
 
-    p = R_x(q_hip) ((0, s 0.08, 0) + R_y(q_thigh) ((0, 0, -0.213) + R_y(q_calf) (-0.015, s 0.0245, -0.233))).
+    p = R_x(q_hip) ((0, s 0.08, 0) + R_y(q_thigh) ((0, 0, -0.213) + R_y(q_calf) (c_x, s c_y, c_z))).
     """
-    # wheel centre in the thigh frame (x-z plane; y is the constant lateral offset)
+    # point in the thigh frame (x-z plane; y is the constant lateral offset)
     c2 = wp.cos(q[2])
     s2 = wp.sin(q[2])
-    tx = WHEEL_IN_CALF_X * c2 + WHEEL_IN_CALF_Z * s2
-    tz = -THIGH_LENGTH - WHEEL_IN_CALF_X * s2 + WHEEL_IN_CALF_Z * c2
+    tx = c[0] * c2 + c[2] * s2
+    tz = -THIGH_LENGTH - c[0] * s2 + c[2] * c2
     # in the hip body frame
     c1 = wp.cos(q[1])
     s1 = wp.sin(q[1])
     x = tx * c1 + tz * s1
     z = -tx * s1 + tz * c1
-    y = side * LEG_LATERAL_OFFSET
+    y = side * (THIGH_OFFSET_Y + c[1])
     # in the hip frame (abduction about x)
     c0 = wp.cos(q[0])
     s0 = wp.sin(q[0])
@@ -84,28 +84,30 @@ def leg_fk(q: wp.vec3, side: float) -> wp.vec3:
 
 
 @wp.func
-def leg_ik(p: wp.vec3, side: float) -> wp.vec3:
-    """Analytic leg inverse kinematics: (hip, thigh, calf) [rad] putting the wheel centre at p [m] (hip frame).
+def leg_point_ik(p: wp.vec3, side: float, c: wp.vec3) -> wp.vec3:
+    """Analytic leg inverse kinematics: (hip, thigh, calf) [rad] putting the calf point c at p [m] (hip frame).
 
-    Branch: wheel below the thigh joint in the hip body frame (z < 0) and knee bent backwards (q_calf < 0), the
+    Branch: point below the thigh joint in the hip body frame (z < 0) and knee bent backwards (q_calf < 0), the
     Go1 configuration. Unreachable targets are projected onto the workspace boundary, and the result is clamped to
     the joint ranges, so the output is always a valid joint target.
     """
-    lat = side * LEG_LATERAL_OFFSET
+    lat = side * (THIGH_OFFSET_Y + c[1])
+    reach = wp.sqrt(c[0] * c[0] + c[2] * c[2])  # knee to point in the calf's x-z plane
+    gamma = wp.atan2(-c[2], c[0])  # c_x sin q - c_z cos q = reach sin(q + gamma)
     # abduction: R_x(q_hip) (lat, z_b) = (p_y, p_z) with z_b = -sqrt(p_y^2 + p_z^2 - lat^2)
     r_yz_sq = p[1] * p[1] + p[2] * p[2]
     z_b = -wp.sqrt(wp.max(r_yz_sq - lat * lat, 0.0))
     q_hip = wrap_angle(wp.atan2(p[2], p[1]) - wp.atan2(z_b, lat), -wp.pi)
-    # knee from the thigh-to-wheel distance: r^2 = L1^2 + L2^2 + 2 L1 L2 sin(q_calf + gamma)
+    # knee from the thigh-to-point distance: r^2 = L1^2 + L2^2 + 2 L1 L2 sin(q_calf + gamma)
     x_b = p[0]
     r_sq = x_b * x_b + z_b * z_b
-    k = (r_sq - THIGH_LENGTH * THIGH_LENGTH - CALF_REACH * CALF_REACH) / (2.0 * THIGH_LENGTH * CALF_REACH)
-    q_calf = wp.asin(wp.clamp(k, -1.0, 1.0)) - CALF_ANGLE
+    k = (r_sq - THIGH_LENGTH * THIGH_LENGTH - reach * reach) / (2.0 * THIGH_LENGTH * reach)
+    q_calf = wp.asin(wp.clamp(k, -1.0, 1.0)) - gamma
     # thigh: R_y rotates the angle atan2(x, z) by q_thigh
     c2 = wp.cos(q_calf)
     s2 = wp.sin(q_calf)
-    tx = WHEEL_IN_CALF_X * c2 + WHEEL_IN_CALF_Z * s2
-    tz = -THIGH_LENGTH - WHEEL_IN_CALF_X * s2 + WHEEL_IN_CALF_Z * c2
+    tx = c[0] * c2 + c[2] * s2
+    tz = -THIGH_LENGTH - c[0] * s2 + c[2] * c2
     q_thigh = wrap_angle(wp.atan2(x_b, z_b) - wp.atan2(tx, tz), THIGH_LOWER)
     return wp.vec3(
         wp.clamp(q_hip, HIP_LOWER, HIP_UPPER),
@@ -114,15 +116,40 @@ def leg_ik(p: wp.vec3, side: float) -> wp.vec3:
     )
 
 
+@wp.func
+def leg_fk(q: wp.vec3, side: float) -> wp.vec3:
+    """Wheel centre [m] in the hip frame from (hip, thigh, calf) q [rad]."""
+    return leg_point_fk(q, side, WHEEL_POINT)
+
+
+@wp.func
+def leg_ik(p: wp.vec3, side: float) -> wp.vec3:
+    """(hip, thigh, calf) [rad] putting the wheel centre at p [m] (hip frame); see :func:`leg_point_ik`."""
+    return leg_point_ik(p, side, WHEEL_POINT)
+
+
+@wp.func
+def foot_fk(q: wp.vec3, side: float) -> wp.vec3:
+    """Foot point (calf end) [m] in the hip frame from (hip, thigh, calf) q [rad]."""
+    return leg_point_fk(q, side, FOOT_POINT)
+
+
+@wp.func
+def foot_ik(p: wp.vec3, side: float) -> wp.vec3:
+    """(hip, thigh, calf) [rad] putting the foot point (calf end) at p [m] (hip frame); see :func:`leg_point_ik`."""
+    return leg_point_ik(p, side, FOOT_POINT)
+
+
 @wp.kernel
 def eval_leg_ik(
-    wheel_pos: wp.array2d(dtype=wp.vec3),
+    target: wp.array2d(dtype=wp.vec3),
+    point: wp.vec3,
     # outputs
     joint_q: wp.array2d(dtype=float),
 ):
-    """Wheel-centre targets in the hip frames (world_count, 4) [m] -> leg joint angles (world_count, 12) [rad]."""
+    """Targets of the calf point ``point`` in the hip frames (world_count, 4) [m] -> leg joints (world_count, 12)."""
     world, leg = wp.tid()
-    q = leg_ik(wheel_pos[world, leg], LEG_SIDE[leg])
+    q = leg_point_ik(target[world, leg], LEG_SIDE[leg], point)
     for j in range(3):
         joint_q[world, 3 * leg + j] = q[j]
 
@@ -130,57 +157,62 @@ def eval_leg_ik(
 @wp.kernel
 def eval_leg_fk(
     joint_q: wp.array2d(dtype=float),
+    point: wp.vec3,
     # outputs
-    wheel_pos: wp.array2d(dtype=wp.vec3),
+    pos: wp.array2d(dtype=wp.vec3),
 ):
-    """Leg joint angles (world_count, 12) [rad] -> wheel centres in the hip frames (world_count, 4) [m]."""
+    """Leg joint angles (world_count, 12) [rad] -> the calf point ``point`` in the hip frames (world_count, 4) [m]."""
     world, leg = wp.tid()
     q = wp.vec3(joint_q[world, 3 * leg], joint_q[world, 3 * leg + 1], joint_q[world, 3 * leg + 2])
-    wheel_pos[world, leg] = leg_fk(q, LEG_SIDE[leg])
+    pos[world, leg] = leg_point_fk(q, LEG_SIDE[leg], point)
 
 
-def compute_leg_ik(wheel_pos: wp.array2d, joint_q: wp.array2d | None = None) -> wp.array2d:
+def compute_leg_ik(target: wp.array2d, joint_q: wp.array2d | None = None, point=constants.WHEEL_CENTER_IN_CALF):
     """Launch :func:`eval_leg_ik`.
 
     Args:
-        wheel_pos: wheel-centre targets in each leg's hip frame, (world_count, 4) vec3 [m], legs FR, FL, RR, RL.
-        joint_q: optional output, (world_count, 12) float32; allocated on wheel_pos's device when None.
+        target: targets of ``point`` in each leg's hip frame, (world_count, 4) vec3 [m], legs FR, FL, RR, RL.
+        joint_q: optional output, (world_count, 12) float32; allocated on target's device when None.
+        point: the calf point (left-leg convention) [m]: the wheel centre (default) or ``constants.FOOT_IN_CALF``.
 
     Returns:
         joint_q: (hip, thigh, calf) of each leg, leg-major, (world_count, 12) float32 [rad], clamped to the ranges.
     """
-    world_count = wheel_pos.shape[0]
+    world_count = target.shape[0]
     if joint_q is None:
-        joint_q = wp.zeros((world_count, constants.NUM_LEG_JOINTS), dtype=float, device=wheel_pos.device)
-    wp.launch(eval_leg_ik, dim=(world_count, constants.NUM_LEGS), inputs=[wheel_pos], outputs=[joint_q])
+        joint_q = wp.zeros((world_count, constants.NUM_LEG_JOINTS), dtype=float, device=target.device)
+    wp.launch(eval_leg_ik, dim=(world_count, constants.NUM_LEGS), inputs=[target, wp.vec3(*point)],
+              outputs=[joint_q], device=target.device)  # fmt: skip
     return joint_q
 
 
-def compute_leg_fk(joint_q: wp.array2d, wheel_pos: wp.array2d | None = None) -> wp.array2d:
+def compute_leg_fk(joint_q: wp.array2d, pos: wp.array2d | None = None, point=constants.WHEEL_CENTER_IN_CALF):
     """Launch :func:`eval_leg_fk`.
 
     Args:
         joint_q: leg joint angles, leg-major (hip, thigh, calf) x FR, FL, RR, RL, (world_count, 12) float32 [rad].
-        wheel_pos: optional output, (world_count, 4) vec3; allocated on joint_q's device when None.
+        pos: optional output, (world_count, 4) vec3; allocated on joint_q's device when None.
+        point: the calf point (left-leg convention) [m]: the wheel centre (default) or ``constants.FOOT_IN_CALF``.
 
     Returns:
-        wheel_pos: wheel centres in each leg's hip frame, (world_count, 4) vec3 [m].
+        pos: ``point`` in each leg's hip frame, (world_count, 4) vec3 [m].
     """
     world_count = joint_q.shape[0]
-    if wheel_pos is None:
-        wheel_pos = wp.zeros((world_count, constants.NUM_LEGS), dtype=wp.vec3, device=joint_q.device)
-    wp.launch(eval_leg_fk, dim=(world_count, constants.NUM_LEGS), inputs=[joint_q], outputs=[wheel_pos])
-    return wheel_pos
+    if pos is None:
+        pos = wp.zeros((world_count, constants.NUM_LEGS), dtype=wp.vec3, device=joint_q.device)
+    wp.launch(eval_leg_fk, dim=(world_count, constants.NUM_LEGS), inputs=[joint_q, wp.vec3(*point)], outputs=[pos],
+              device=joint_q.device)  # fmt: skip
+    return pos
 
 
-def leg_fk_numpy(q: np.ndarray, side: float) -> np.ndarray:
-    """NumPy reference of :func:`leg_fk` for q of shape (..., 3) [rad]; returns (..., 3) [m] (tests, tools)."""
+def leg_fk_numpy(q: np.ndarray, side: float, point=constants.WHEEL_CENTER_IN_CALF) -> np.ndarray:
+    """NumPy reference of :func:`leg_point_fk` for q of shape (..., 3) [rad]; returns (..., 3) [m] (tests, tools)."""
     q = np.asarray(q, dtype=np.float64)
-    c = np.array(constants.WHEEL_CENTER_IN_CALF, dtype=np.float64) * np.array([1.0, side, 1.0])
+    c = np.asarray(point, dtype=np.float64)
     q0, q1, q2 = q[..., 0], q[..., 1], q[..., 2]
     tx = c[0] * np.cos(q2) + c[2] * np.sin(q2)
     tz = -constants.THIGH_LENGTH - c[0] * np.sin(q2) + c[2] * np.cos(q2)
     x = tx * np.cos(q1) + tz * np.sin(q1)
     z = -tx * np.sin(q1) + tz * np.cos(q1)
-    y = side * constants.THIGH_OFFSET_Y + c[1]
+    y = side * (constants.THIGH_OFFSET_Y + c[1])
     return np.stack([x, y * np.cos(q0) - z * np.sin(q0), y * np.sin(q0) + z * np.cos(q0)], axis=-1)

@@ -5,8 +5,12 @@ References:
     Joule-heating model P = sum max(0.3 tau^2 + tau qd, 0) for Go1: the paper authors' lineage, see
     ``../shared/reference/SIMULATION_FACTS.md``.
 
-Usage per policy step: zero ``p_cost``, ``p_mech``, ``p_joule``; after each of the ``substeps`` physics substeps call
-:func:`launch_power` with ``weight = 1 / substeps``; the arrays then hold the substep-averaged power [W].
+Usage per policy step: zero the output arrays; after each of the ``substeps`` physics substeps call
+:func:`launch_power` with ``weight = 1 / substeps``; the arrays then hold substep averages. Outputs, each (W,):
+``p_cost``, ``p_mech``, ``p_joule`` over all 16 joints [W]; the same split into legs (joints 0-11) and wheels
+(12-15); ``torque_sq`` = sum tau_j^2 [(N m)^2] and ``power_sq`` = sum (tau_j qd_j)^2 [W^2], the substep averages
+the reward's "joint torques" and "energy efficiency" terms read (the energy term is the squared norm of the vector
+of joint powers, ||(tau_j qd_j)_j||^2, averaged over the substeps like p_cost).
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from __future__ import annotations
 import warp as wp
 
 NUM_ACTUATED = wp.constant(16)
+NUM_LEG_JOINTS = wp.constant(12)
 JOULE_COEFF = wp.constant(0.3)
 """Copper-loss coefficient of the Joule model [W/(N m)^2] (SIMULATION_FACTS.md)."""
 
@@ -47,29 +52,57 @@ def accumulate_power(
     p_cost: wp.array(dtype=wp.float32),
     p_mech: wp.array(dtype=wp.float32),
     p_joule: wp.array(dtype=wp.float32),
+    p_cost_legs: wp.array(dtype=wp.float32),
+    p_cost_wheels: wp.array(dtype=wp.float32),
+    p_mech_legs: wp.array(dtype=wp.float32),
+    p_mech_wheels: wp.array(dtype=wp.float32),
+    p_joule_legs: wp.array(dtype=wp.float32),
+    p_joule_wheels: wp.array(dtype=wp.float32),
+    torque_sq: wp.array(dtype=wp.float32),
+    power_sq: wp.array(dtype=wp.float32),
 ):
-    """One thread per robot: add weight * sum over 16 joints of each power term."""
+    """One thread per robot: add weight * (sum over the legs' and the wheels' joints) of each term."""
     world = wp.tid()
-    cost = wp.float32(0.0)
-    mech = wp.float32(0.0)
-    joule = wp.float32(0.0)
+    cost = wp.vec2(0.0, 0.0)
+    mech = wp.vec2(0.0, 0.0)
+    joule = wp.vec2(0.0, 0.0)
+    tsq = float(0.0)
+    psq = float(0.0)
     for j in range(NUM_ACTUATED):
         tau = joint_torque[world, j]
         qd = joint_qd[world, dof_index[j]]
-        cost += p_cost_term(tau, qd)
-        mech += positive_mech_power_term(tau, qd)
-        joule += joule_power_term(tau, qd)
-    p_cost[world] += weight * cost
-    p_mech[world] += weight * mech
-    p_joule[world] += weight * joule
+        g = 0
+        if j >= NUM_LEG_JOINTS:
+            g = 1
+        cost[g] = cost[g] + p_cost_term(tau, qd)
+        mech[g] = mech[g] + positive_mech_power_term(tau, qd)
+        joule[g] = joule[g] + joule_power_term(tau, qd)
+        tsq += tau * tau
+        psq += (tau * qd) * (tau * qd)
+    p_cost[world] += weight * (cost[0] + cost[1])
+    p_mech[world] += weight * (mech[0] + mech[1])
+    p_joule[world] += weight * (joule[0] + joule[1])
+    p_cost_legs[world] += weight * cost[0]
+    p_cost_wheels[world] += weight * cost[1]
+    p_mech_legs[world] += weight * mech[0]
+    p_mech_wheels[world] += weight * mech[1]
+    p_joule_legs[world] += weight * joule[0]
+    p_joule_wheels[world] += weight * joule[1]
+    torque_sq[world] += weight * tsq
+    power_sq[world] += weight * psq
+
+
+POWER_OUTPUTS = (
+    "p_cost", "p_mech", "p_joule", "p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs",
+    "p_joule_wheels", "torque_sq", "power_sq",
+)  # fmt: skip
+"""Names of :func:`accumulate_power`'s outputs, in order; each is a (W,) float32 array."""
 
 
 def launch_power(
     joint_torque: wp.array,
     joint_qd: wp.array,
-    p_cost: wp.array,
-    p_mech: wp.array,
-    p_joule: wp.array,
+    outputs: list,
     dof_index: wp.array,
     *,
     weight: float,
@@ -83,19 +116,19 @@ def launch_power(
     Args:
         joint_torque: (W, 16) actuated-joint torques [N m], project joint order.
         joint_qd: (W, dofs_per_world) joint velocities; actuated joint j at column ``dof_index[j]`` [rad/s].
-        p_cost: (W,) sum |tau| |qd| [W], accumulated.
-        p_mech: (W,) sum max(tau qd, 0) [W], accumulated.
-        p_joule: (W,) sum max(0.3 tau^2 + tau qd, 0) [W], accumulated.
+        outputs: the (W,) arrays named by :data:`POWER_OUTPUTS`, in that order, accumulated.
         weight: scale of this substep's contribution, 1 / substeps [-].
         dof_index: (16,) int32 column of each actuated joint in a world's ``joint_qd`` row.
         device: Warp device to launch on (default: the arrays' device).
         record_cmd: return the prepared launch instead of running it (replay it with ``.launch()``).
     """
+    if len(outputs) != len(POWER_OUTPUTS):
+        raise ValueError(f"launch_power needs {len(POWER_OUTPUTS)} output arrays ({', '.join(POWER_OUTPUTS)})")
     return wp.launch(
         accumulate_power,
         dim=joint_torque.shape[0],
         inputs=[joint_torque, joint_qd, dof_index, weight],
-        outputs=[p_cost, p_mech, p_joule],
+        outputs=list(outputs),
         record_cmd=record_cmd,
         device=device or joint_torque.device,
     )

@@ -36,7 +36,8 @@ def compute_rewards(
     prev2_action: wp.array2d(dtype=wp.float32),
     actuated_qd: wp.array2d(dtype=wp.float32),
     prev_actuated_qd: wp.array2d(dtype=wp.float32),
-    joint_torque: wp.array2d(dtype=wp.float32),
+    torque_sq: wp.array(dtype=wp.float32),
+    power_sq: wp.array(dtype=wp.float32),
     body_collision: wp.array2d(dtype=wp.int32),
     weight: wp.array(dtype=wp.float32),
     sigma: float,
@@ -49,7 +50,8 @@ def compute_rewards(
     """One thread per robot. ``term`` (N, 12) gets the weighted terms w_k r_k dt, ``episode_sum`` accumulates them,
     ``reward`` (N,) their sum. ``joint_q`` / ``joint_qd``: Newton rows of a free-floating base (quaternion xyzw at
     3:7, world-frame linear / angular velocity at 0:3 / 3:6); velocities are rotated into the base frame.
-    ``actuated_qd``, ``joint_torque``: (N, 16) project order."""
+    ``actuated_qd``: (N, 16) project order. ``torque_sq`` = sum_j tau_j^2 and ``power_sq`` = sum_j (tau_j qd_j)^2,
+    (N,), averaged over the physics substeps of the step (``wqwarp.kernels.power``), like p_cost."""
     i = wp.tid()
     q = wp.quat(joint_q[i, 3], joint_q[i, 4], joint_q[i, 5], joint_q[i, 6])
     v = wp.quat_rotate_inv(q, wp.vec3(joint_qd[i, 0], joint_qd[i, 1], joint_qd[i, 2]))
@@ -81,9 +83,8 @@ def compute_rewards(
                 for j in range(actuated_qd.shape[1]):
                     a = (actuated_qd[i, j] - prev_actuated_qd[i, j]) / dt
                     r += a * a
-            elif k == 8:
-                for j in range(joint_torque.shape[1]):
-                    r += joint_torque[i, j] * joint_torque[i, j]
+            elif k == 8:  # ||tau||^2, substep average
+                r = torque_sq[i]
             elif k == 9:  # (a_t + a_{t-2} - 2 a_{t-1})^2
                 for j in range(action.shape[1]):
                     d = action[i, j] + prev2_action[i, j] - 2.0 * prev_action[i, j]
@@ -91,10 +92,8 @@ def compute_rewards(
             elif k == 10:
                 for c in range(body_collision.shape[1]):
                     r += float(body_collision[i, c])
-            elif k == 11:  # ||tau * qd||^2
-                for j in range(joint_torque.shape[1]):
-                    p = joint_torque[i, j] * actuated_qd[i, j]
-                    r += p * p
+            elif k == 11:  # ||tau * qd||^2: squared norm of the joint powers, substep average
+                r = power_sq[i]
         rk = wk * r * dt
         term[i, k] = rk
         episode_sum[i, k] += rk

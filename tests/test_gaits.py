@@ -20,7 +20,7 @@ def _in_swing(gait: Gait, t: np.ndarray) -> np.ndarray:
 def test_table_one():
     assert GAIT_NAMES == ("driving", "trotting", "walking")
     driving, trotting, walking = GAIT_LIBRARY
-    assert driving == Gait("driving", (0.0, 0.0, 0.0, 0.0), 0.0, 0.0)
+    assert driving == Gait("driving", (0.0, 0.0, 0.0, 0.0), 0.0, 0.0, stance_x=-0.05)  # PMTG.py driving x
     assert (trotting.df_swing, trotting.frequency) == (0.4, 1.2)
     assert trotting.phase_offsets == (0.0, 0.5, 0.5, 0.0)  # FR, FL, RR, RL: diagonals (FR, RL), (FL, RR)
     assert walking == Gait("walking", (0.0, 0.25, 0.5, 0.75), 0.225, 0.8)

@@ -9,7 +9,8 @@ Usage::
 Every number carries its source:
     [MJCF]  MuJoCo Menagerie ``unitree_go1/go1.xml`` (BSD-3, commit 1f39894), see ../shared/reference/go1/FACTS.md
     [URDF]  Unitree ``go1_description`` (BSD-3), same FACTS.md
-    [HARN]  the paper's first author's public wheeled-Go1 sim-to-sim harness (MIT), via SIMULATION_FACTS.md
+    [HARN]  the paper's first author's public wheeled-Go1 sim-to-sim harness (MIT), xu-yang16/wheeled-quadruped-sim2sim
+            ``resources/wheeled_go1/xml/wheeled_go1.xml`` and ``.../meshes/wheeled_go1.urdf``, via SIMULATION_FACTS.md
     [AK80]  T-Motor AK80-6 data (rated 6 N m, 38.2 rad/s, 0.485 kg, rotor 6.07e-5 kg m^2, 6:1), FACTS.md
     [CYL]   uniform solid cylinder inertia, I_axis = m r^2 / 2, I_perp = m (3 r^2 + w^2) / 12 (derived here)
 
@@ -96,18 +97,27 @@ def _cylinder_inertia(mass: float, radius: float, width: float) -> tuple[float, 
     return (i_perp, i_axis, i_perp)
 
 
-# Wheel [HARN]: radius 0.075 m, width 0.03 m, 0.2023 kg, centre at (-0.015, +-0.0245, -0.233) in the calf frame.
+# Wheel [HARN]: radius 0.075 m, width 0.03 m, 0.2023 kg, centre INBOARD of the calf at (-0.015, -+0.0245, -0.233)
+# in the calf frame (left legs -0.0245, right legs +0.0245; constants.WHEEL_CENTER_IN_CALF).
 WHEEL_INERTIA = _cylinder_inertia(C.WHEEL_MASS, C.WHEEL_RADIUS, C.WHEEL_WIDTH)
-# Wheel motor [HARN] 0.514 kg fixed at the calf end (the calf frame's (0, 0, -0.213)); its inertia is that of a
-# cylinder of the AK80-6's size, 98 mm diameter x 38.5 mm [AK80], axis along y.
-WHEEL_MOTOR_OFFSET = (0.0, 0.0, -C.CALF_LENGTH)
+# Wheel motor [HARN] 0.514 kg, coaxial with the wheel at (-0.015, +-0.0025, -0.233) in the calf frame, where the
+# authors' MJCF puts its collision cylinder (constants.WHEEL_MOTOR_IN_CALF); its inertia is that of a cylinder of the
+# AK80-6's size, 98 mm diameter x 38.5 mm [AK80], axis along y. It has no collision shape here (see below).
 WHEEL_MOTOR_INERTIA = _cylinder_inertia(C.WHEEL_MOTOR_MASS, 0.049, 0.0385)
 
 # Joint dynamics. Armature: 0.01 kg m^2 on every leg joint [MJCF]; the wheel carries the AK80-6 rotor reflected
 # through its 6:1 gearbox, 6.07e-5 * 36 = 2.19e-3 kg m^2 [AK80]. Joint damping and dry friction are left at 0 as in
 # the URDF [URDF]: the leg PD and wheel PID supply all damping.
+# The authors' MJCF [HARN] sets, as class defaults for every joint, damping 0.01 N m s/rad, armature 0.01 kg m^2 and
+# frictionloss 0.2 N m, and ground friction 0.6. Not adopted here, each for a stated reason: the leg armature is the
+# same 0.01; a wheel armature of 0.01 would be 4.6x the AK80-6 rotor reflected through its gearbox (the data sheet
+# value above), and a larger armature hides the explicit-feedback limit of the wheel loop rather than respecting it
+# (SimConfig.wheel_kp); damping 0.01 is 1 % of the leg PD's Kd; the 0.2 N m dry friction on all 16 joints is a
+# motor loss model of its own (it costs ~0.2 N m x 20 rad/s = 4 W per wheel at 1.5 m/s) that the paper does not
+# state, so it belongs to a second physics configuration for sim-to-sim evaluation, not to the training model;
+# friction is randomised per robot in training (EnvConfig.domain_rand.friction_range 0.5-1.25 spans 0.6).
 LEG_ARMATURE = 0.01
-WHEEL_ARMATURE = 6.07e-5 * 36.0
+WHEEL_ARMATURE = C.WHEEL_ARMATURE
 LEG_VELOCITY_LIMITS = (C.HIP_VELOCITY_LIMIT, C.THIGH_VELOCITY_LIMIT, C.CALF_VELOCITY_LIMIT)  # [URDF] rad/s
 
 # Collision shapes, simplified from the MJCF `collision` classes to axis-aligned primitives [MJCF]:
@@ -115,6 +125,10 @@ LEG_VELOCITY_LIMITS = (C.HIP_VELOCITY_LIMIT, C.THIGH_VELOCITY_LIMIT, C.CALF_VELO
 # thigh: one capsule r 0.02 around thigh1..3 (z from 0 to -0.2, x about -0.01); calf: one capsule r 0.012 around
 # calf1..2 (z from 0 to -0.2, x about +0.01). The wheel is a cylinder (axis y) [HARN]. The hip has none (as its
 # MJCF cylinders only touch the ground when the trunk does).
+# The authors' MJCF [HARN] uses boxes instead: trunk half-sizes (0.13, 0.04675, 0.057), thigh (0.1065, 0.01225, 0.017)
+# and calf (0.1065, 0.008, 0.008) centred 0.1065 below each joint, plus a colliding wheel-motor cylinder (r 0.049)
+# coaxial with the wheel. Ours stay within ~1 cm of theirs in every extent; the motor cylinder lies inside the wheel's
+# 0.075 m radius, so it can touch flat ground only after the wheel does, and is left out.
 TRUNK_BOX_HALF = (0.125, 0.04, 0.057)
 TRUNK_CYL = (0.058, 0.25)  # radius, full length [m]
 THIGH_CAPSULE = ((-0.01, 0.0, -0.1), 0.02, 0.16)  # centre, radius, cylindrical-part length [m]
@@ -219,7 +233,9 @@ def build_stage() -> Usd.Stage:
         wx, wy, wz = C.WHEEL_CENTER_IN_CALF  # [HARN], y mirrored on right legs
         wheel_local = (wx, sy * wy, wz)
         wheel = (calf[0] + wheel_local[0], calf[1] + wheel_local[1], calf[2] + wheel_local[2])
-        motor = (calf[0] + WHEEL_MOTOR_OFFSET[0], calf[1] + WHEEL_MOTOR_OFFSET[1], calf[2] + WHEEL_MOTOR_OFFSET[2])
+        mx, my, mz = C.WHEEL_MOTOR_IN_CALF  # [HARN], y mirrored on right legs
+        motor_local = (mx, sy * my, mz)
+        motor = (calf[0] + motor_local[0], calf[1] + motor_local[1], calf[2] + motor_local[2])
 
         _add_body(stage, f"{leg}_hip", hip, HIP_INERTIAL[leg])
         _add_body(stage, f"{leg}_thigh", thigh, THIGH_LEFT if sy > 0 else THIGH_RIGHT)
@@ -265,7 +281,7 @@ def build_stage() -> Usd.Stage:
         fj = UsdPhysics.FixedJoint.Define(stage, f"{ROOT}/joints/{leg}_wheel_motor_fixed")
         fj.CreateBody0Rel().SetTargets([Sdf.Path(f"{ROOT}/{leg}_calf")])
         fj.CreateBody1Rel().SetTargets([Sdf.Path(f"{ROOT}/{leg}_wheel_motor")])
-        fj.CreateLocalPos0Attr(Gf.Vec3f(*WHEEL_MOTOR_OFFSET))
+        fj.CreateLocalPos0Attr(Gf.Vec3f(*motor_local))
         fj.CreateLocalRot0Attr(Gf.Quatf(1.0))
         fj.CreateLocalPos1Attr(Gf.Vec3f(0.0))
         fj.CreateLocalRot1Attr(Gf.Quatf(1.0))

@@ -7,8 +7,8 @@ Usage::
 
 Columns: ``t, phase_0..phase_3, swing_0..swing_3, foot_z_0..foot_z_3, wheel_vel_0..wheel_vel_3,
 q_target_0..q_target_11``. Legs in the project order FR, FL, RR, RL (``wqwarp.constants``); ``swing_i`` is 1 while leg
-i swings; ``foot_z`` is the nominal wheel-centre height in the hip frame [m]; ``wheel_vel`` the nominal wheel speed
-[rad/s] with every wheel assumed on the ground (legs at the default pose for the lateral distances of Eq. (3));
+i swings; ``foot_z`` is the nominal foot-point (calf end) height in the hip frame [m]; ``wheel_vel`` the nominal wheel
+speed [rad/s] with every wheel assumed on the ground (legs at the default pose for the lateral distances of Eq. (3));
 ``q_target`` the nominal leg joint targets [rad] (hip, thigh, calf per leg). No physics runs.
 """
 
@@ -52,7 +52,7 @@ def trace(gait: str, vx: float, vy: float, wz: float, seconds: float, dt: float)
         ng.step(legs, contact, dt)
         psi = ng.swing_psi.numpy()[0]
         rows.append(np.concatenate([
-            [(k + 1) * dt], ng.phase.numpy()[0], (psi >= 0).astype(np.float32), ng.wheel_target.numpy()[0][:, 2],
+            [(k + 1) * dt], ng.phase.numpy()[0], (psi >= 0).astype(np.float32), ng.foot_target.numpy()[0][:, 2],
             ng.wheel_velocity.numpy()[0], ng.leg_joint_target.numpy()[0],
         ]))  # fmt: skip
     return np.asarray(rows)

@@ -99,9 +99,11 @@ class GaitConfig:
     fixed_gait: str = "trotting"
     """Gait from the paper's Table I used when ``selection == 'fixed'``."""
     body_height: float = 0.2
-    """h_b [m] (authors' harness: body height 0.2 m)."""
+    """h_b: foot point (calf end) below the hip in stance [m] (authors' generator: body_height 0.2 m)."""
     swing_height: float = 0.1
-    """h_s [m] (authors' harness: clearance 0.1 m)."""
+    """h_s [m] (authors' generator: max_clearance 0.1 m)."""
+    swing_x_amplitude: float = 0.05
+    """Horizontal swing amplitude of the foot point [m] (authors' generator: max_horizontal_offset 0.05 m)."""
 
 
 @dataclass
@@ -112,12 +114,16 @@ class ActionConfig:
     """Legs: p_des = p_n + dp -> IK -> PD (False: baseline joint-offset actions around the default pose)."""
     use_nominal_wheels: bool = True
     """Wheels: v_des = v_n + dv (False: v_des = dv, as PMTG and 'w/o nominal wheel velocity')."""
+    phase_residual_mode: str = "increment"
+    """How dphi enters the phase: ``increment`` (added to the clock every policy step, a rate) or ``offset`` (an
+    offset from the gait clock, phi = (phi0 + f t + dphi) mod 1, as the authors' generator PMTG.py does).
+    ``increment`` is the default: measured better at equal budget (README, "Phase residual")."""
     phase_scale: float = 0.2
-    """Phase residual per unit action [cycles per policy step] (harness x0.2)."""
+    """Phase residual per unit action [cycles] (harness x0.2)."""
     phase_clip: float = 0.2
-    """|dphi| bound [cycles per policy step]."""
+    """|dphi| bound [cycles]."""
     foot_scale: float = 0.2
-    """Wheel-centre residual per unit action [m] (harness x0.2)."""
+    """Foot-point residual per unit action [m] (harness x0.2)."""
     foot_clip: float = 0.3
     """|dp| bound per axis [m] (harness clip 0.3)."""
     wheel_scale: float = 5.0

@@ -20,6 +20,7 @@ in public Go2-W deploy configs (wheel indices 12-15).
 
 from __future__ import annotations
 
+import math
 import os
 
 LEG_NAMES: tuple[str, ...] = ("FR", "FL", "RR", "RL")
@@ -65,8 +66,20 @@ WHEEL_MASS = 0.2023
 """Wheel mass [kg]."""
 WHEEL_MOTOR_MASS = 0.514
 """Wheel-motor link fixed at the calf end [kg] (harness value; AK80-6 alone is 0.485 kg)."""
-WHEEL_CENTER_IN_CALF = (-0.015, 0.0245, -0.233)
-"""Wheel centre in the calf frame [m] for a left leg; the y sign flips on a right leg (harness)."""
+WHEEL_CENTER_IN_CALF = (-0.015, -0.0245, -0.233)
+"""Wheel centre in the calf frame [m] for a left leg; the y sign flips on a right leg. INBOARD of the calf, as in the
+authors' public model (xu-yang16/wheeled-quadruped-sim2sim ``resources/wheeled_go1/xml/wheeled_go1.xml``: FR wheel
+body at calf-frame y = +0.0085 with its collision cylinder a further 0.016 along the axis, i.e. y = +0.0245 on the
+right legs, FL at -0.0085 - 0.016 = -0.0245; the URDF ``resources/wheeled_go1/meshes/wheeled_go1.urdf`` agrees)."""
+WHEEL_MOTOR_IN_CALF = (-0.015, 0.0025, -0.233)
+"""Wheel-motor (AK80-6) centre in the calf frame [m] for a left leg (y flips on a right leg): coaxial with the wheel,
+where the authors' MJCF puts its collision cylinder (r 0.049, half-width 0.01375; FR at y = -0.0025, FL at +0.0025).
+Their calf inertial (0.650 kg, COM z -0.208) is the Menagerie calf plus a 0.514 kg mass at this point."""
+WHEEL_ARMATURE = 6.07e-5 * 36.0
+"""Wheel-joint armature [kg m^2]: the AK80-6 rotor inertia (6.07e-5 kg m^2) reflected through its 6:1 gearbox."""
+WHEEL_AIRBORNE_INERTIA = 0.5 * WHEEL_MASS * WHEEL_RADIUS**2 + WHEEL_ARMATURE
+"""Inertia a wheel-speed controller drives when the wheel is off the ground [kg m^2]: the wheel's axial inertia
+(solid cylinder, 5.7e-4) plus the armature, 2.75e-3 in all. It bounds the explicit velocity-feedback gain."""
 WHEEL_TORQUE_LIMIT = 6.0
 """Wheel torque limit [N m]: AK80-6 rated torque (peak 12 N m)."""
 WHEEL_VELOCITY_LIMIT = 38.2
@@ -94,18 +107,47 @@ TORQUE_LIMITS: tuple[float, ...] = (HIP_TORQUE_LIMIT, THIGH_TORQUE_LIMIT, CALF_T
 ) * NUM_WHEELS
 """Torque limit of each actuated joint, project order [N m]."""
 
-# --- Default pose ----------------------------------------------------------------------------------------------------
+# --- Nominal gait geometry and default pose (the authors' trajectory generator) ------------------------------------
+FOOT_IN_CALF = (0.0, 0.0, -CALF_LENGTH)
+"""The point the authors' trajectory generator places and its leg IK solves for [m], calf frame: the calf end (Go1's
+foot point; ``sim/policy_manager/PMTG.py``: IK with hip 0.08, thigh 0.213, calf 0.213 m). The nominal gait's h_b and
+the policy's foot residuals refer to this point; the wheel centre hangs 0.02 m below and 0.015 m behind it."""
 NOMINAL_BODY_HEIGHT = 0.2
-"""h_b: wheel centre below the hip joint in stance [m] (authors' public harness: body height 0.2 m)."""
+"""h_b: foot point (calf end) below the hip joint in stance [m] (PMTG.py ``body_height``; config
+``sim/policy_manager/policy_config/my_legged_robot_config.py`` pmtg.body_height = 0.2)."""
 NOMINAL_SWING_HEIGHT = 0.1
-"""h_s: swing clearance of the wheel centre [m] (authors' public harness: clearance 0.1 m)."""
-DEFAULT_LEG_ANGLES = (0.0, 1.20022516, -2.28116416)
-"""Default (hip, thigh, calf) of every leg [rad]: the leg IK of the nominal stance, wheel centre at
-(0, side * (THIGH_OFFSET_Y + 0.0245), -NOMINAL_BODY_HEIGHT) in the hip frame (checked in tests). The trunk then
-stands about h_b + R_wheel = 0.275 m above flat ground."""
-DEFAULT_BASE_HEIGHT = NOMINAL_BODY_HEIGHT + WHEEL_RADIUS
-"""Trunk-origin height of the default pose on flat ground [m]."""
-DEFAULT_JOINT_POS: tuple[float, ...] = DEFAULT_LEG_ANGLES * NUM_LEGS + (0.0,) * NUM_WHEELS
+"""h_s: swing clearance [m] (config pmtg.max_clearance = 0.1)."""
+NOMINAL_FOOT_XY = ((0.0149, -0.09525), (0.0149, 0.09525), (0.0321, -0.09525), (0.0321, 0.09525))
+"""Nominal stance foot point (x, y) in each hip frame [m], legs FR, FL, RR, RL: PMTG.py's nominal foot positions in
+the base frame ``HIP_POSITION`` (+-0.203 / -0.156, +-0.142) minus its ``HIP_OFFSETS`` (+-0.1881, +-0.04675)."""
+MAX_HORIZONTAL_OFFSET = 0.05
+"""Horizontal swing amplitude [m]: swing x = -0.05 sin(2 pi psi); the driving gait holds x = -0.05 (config
+pmtg.max_horizontal_offset = 0.05; PMTG.py ``gen_foot_trajectory_axis_z``)."""
+DEFAULT_LEG_ANGLES_RIGHT = (-0.1, 1.08, -2.16)
+DEFAULT_LEG_ANGLES_LEFT = (0.1, 1.08, -2.16)
+"""Default (hip, thigh, calf) [rad] of a right / left leg: the authors' reset stance and observation offset
+(config ``init_state.default_joint_angles``: hip -+0.1, thigh 1.08, calf -2.16). Foot point 0.201 m below the hip."""
+DEFAULT_JOINT_POS: tuple[float, ...] = (
+    DEFAULT_LEG_ANGLES_RIGHT + DEFAULT_LEG_ANGLES_LEFT + DEFAULT_LEG_ANGLES_RIGHT + DEFAULT_LEG_ANGLES_LEFT
+) + (0.0,) * NUM_WHEELS
+"""Default positions of the 16 actuated joints, project order [rad]."""
+
+
+def _default_base_height() -> float:
+    """Trunk-origin height [m] at which the wheels of the default pose touch flat ground (computed, not tuned)."""
+    hip, thigh, calf = DEFAULT_LEG_ANGLES_LEFT
+    cx, cy, cz = WHEEL_CENTER_IN_CALF
+    # wheel centre in the thigh frame, then the hip body frame, then the abduction about x (as kernels/kinematics)
+    tx = cx * math.cos(calf) + cz * math.sin(calf)
+    tz = -THIGH_LENGTH - cx * math.sin(calf) + cz * math.cos(calf)
+    z_b = -tx * math.sin(thigh) + tz * math.cos(thigh)
+    y_b = THIGH_OFFSET_Y + cy
+    z = y_b * math.sin(hip) + z_b * math.cos(hip)
+    return -z + WHEEL_RADIUS
+
+
+DEFAULT_BASE_HEIGHT = _default_base_height()
+"""Trunk-origin height of the default pose on flat ground [m] (~0.30 m: wheel centre 0.225 m below the hips)."""
 
 # --- Bodies used for contact / collision reporting ---------------------------------------------------------------
 TRUNK_BODY = "trunk"

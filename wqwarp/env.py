@@ -97,7 +97,9 @@ class WheeledGo1Env(VecEnv):
         self.gait_id = torch.zeros(n, dtype=torch.long, device=dev)
         if cfg.gait.selection != "none":
             self.nominal = NominalGait(n, sim.device, body_height=cfg.gait.body_height,
-                                       swing_height=cfg.gait.swing_height)  # fmt: skip
+                                       swing_height=cfg.gait.swing_height,
+                                       swing_x_amplitude=cfg.gait.swing_x_amplitude,
+                                       phase_mode=cfg.action.phase_residual_mode)  # fmt: skip
             self.gait_id[:] = gait_index(cfg.gait.fixed_gait)
             wp.to_torch(self.nominal.gait_id)[:] = self.gait_id.to(torch.int32)
             self.nominal.reset(np.arange(n))
@@ -222,7 +224,7 @@ class WheeledGo1Env(VecEnv):
             wp.to_torch(ng.phase_residual)[:] = torch.clamp(cfg.phase_scale * a[:, :4], -cfg.phase_clip, cfg.phase_clip)
             ng.step(sim.actuated_q[:, :12], sim.wheel_contact, self.dt)
             wp.launch(residual_targets, dim=(self.num_envs, 4),
-                      inputs=[self.actions_wp, ng.wheel_target, ng.wheel_velocity, int(cfg.use_nominal_wheels),
+                      inputs=[self.actions_wp, ng.foot_target, ng.wheel_velocity, int(cfg.use_nominal_wheels),
                               cfg.foot_scale, cfg.foot_clip, cfg.wheel_scale, cfg.wheel_clip],
                       outputs=[self.foot_residual_wp, sim.leg_q_target, sim.wheel_qd_target],
                       device=sim.device)  # fmt: skip
@@ -236,7 +238,7 @@ class WheeledGo1Env(VecEnv):
         sim = self.sim
         wp.launch(compute_rewards, dim=self.num_envs,
                   inputs=[sim.joint_q, sim.joint_qd, self.commands_wp, self.actions_wp, self.prev_actions_wp,
-                          self.prev2_actions_wp, sim.actuated_qd, self.prev_qd_wp, sim.joint_torque,
+                          self.prev2_actions_wp, sim.actuated_qd, self.prev_qd_wp, sim.torque_sq, sim.power_sq,
                           sim.body_collision, self.reward_weights, self.cfg.reward.tracking_sigma, self.dt],
                   outputs=[self.reward_wp, self.reward_terms_wp, self.episode_sums_wp],
                   device=sim.device)  # fmt: skip

@@ -6,8 +6,8 @@ References:
 Phase table in project leg order FR, FL, RR, RL (phi_i = phase offset; leg i swings while its phase is in
 [0, DF_swing))::
 
-    gait      offsets FR   FL    RR    RL     DF_swing  f [Hz]
-    driving           0    0     0     0      0         0
+    gait      offsets FR   FL    RR    RL     DF_swing  f [Hz]   stance x [m] (authors' generator, not Table I)
+    driving           0    0     0     0      0         0        -0.05
     trotting          0    0.5   0.5   0      0.4       1.2
     walking           0    0.25  0.5   0.75   0.225     0.8
 
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from wqwarp.constants import NUM_LEGS
+from wqwarp.constants import MAX_HORIZONTAL_OFFSET, NUM_LEGS
 
 
 @dataclass(frozen=True)
@@ -43,6 +43,9 @@ class Gait:
     """DF_swing in [0, 1]: fraction of the cycle spent in swing (0 = the legs never swing) [-]."""
     frequency: float
     """Gait frequency f [Hz]."""
+    stance_x: float = 0.0
+    """x offset of every stance foot point from its nominal position [m] (authors' generator, PMTG.py: the driving
+    gait holds x = -max_horizontal_offset = -0.05 m; the legged gaits 0)."""
 
     def __post_init__(self) -> None:
         if len(self.phase_offsets) != NUM_LEGS:
@@ -56,7 +59,7 @@ class Gait:
 
 
 GAIT_LIBRARY: tuple[Gait, ...] = (
-    Gait("driving", (0.0, 0.0, 0.0, 0.0), df_swing=0.0, frequency=0.0),
+    Gait("driving", (0.0, 0.0, 0.0, 0.0), df_swing=0.0, frequency=0.0, stance_x=-MAX_HORIZONTAL_OFFSET),
     # Paper: [0, 0.5, 0, 0.5] in its own order; diagonal pairs (FR, RL) and (FL, RR) share a phase in ours.
     Gait("trotting", (0.0, 0.5, 0.5, 0.0), df_swing=0.4, frequency=1.2),
     # Table I numbers in our order FR, FL, RR, RL: swing sequence FR, FL, RR, RL (see the module docstring).
@@ -86,6 +89,8 @@ class GaitArrays:
     """(num_gaits,) float32 swing duty factor [-]."""
     frequency: wp.array
     """(num_gaits,) float32 gait frequency [Hz]."""
+    stance_x: wp.array
+    """(num_gaits,) float32 stance x offset of the foot points [m]."""
 
     @property
     def num_gaits(self) -> int:
@@ -99,4 +104,5 @@ def gait_library_arrays(device: wp.context.Devicelike = None, library: tuple[Gai
         phase_offsets=wp.array(offsets, dtype=wp.float32, device=device),
         df_swing=wp.array(np.array([g.df_swing for g in library], dtype=np.float32), dtype=wp.float32, device=device),
         frequency=wp.array(np.array([g.frequency for g in library], dtype=np.float32), dtype=wp.float32, device=device),
+        stance_x=wp.array(np.array([g.stance_x for g in library], dtype=np.float32), dtype=wp.float32, device=device),
     )

@@ -21,7 +21,7 @@ class NominalGait:
     Inputs per :meth:`step` (Warp arrays, float32 unless noted): ``command`` (W, 3) (v_x, v_y, w_z) in the base
     frame [m/s, m/s, rad/s]; ``gait_id`` (W,) int32 requested gait (index into ``library``); ``phase_residual``
     (W, 4) [cycles]. Outputs (views, updated in place): ``phase`` (W, 4), ``swing_psi`` (W, 4) (-1 in stance),
-    ``wheel_target`` (W, 4) vec3 wheel centres in the hip frames [m], ``leg_joint_target`` (W, 12) [rad],
+    ``foot_target`` (W, 4) vec3 foot points (calf ends) in the hip frames [m], ``leg_joint_target`` (W, 12) [rad],
     ``wheel_velocity`` (W, 4) [rad/s], ``active_gait_id`` (W,) int32.
     """
 
@@ -32,6 +32,8 @@ class NominalGait:
         library: tuple[Gait, ...] = GAIT_LIBRARY,
         body_height: float = C.NOMINAL_BODY_HEIGHT,
         swing_height: float = C.NOMINAL_SWING_HEIGHT,
+        swing_x_amplitude: float = C.MAX_HORIZONTAL_OFFSET,
+        phase_mode: str = "increment",
     ):
         self.world_count = world_count
         self.device = wp.get_device(device)
@@ -42,11 +44,17 @@ class NominalGait:
         """h_b: wheel centre below the hip in stance [m]."""
         self.swing_height = float(swing_height)
         """h_s: swing clearance [m]."""
+        self.swing_x_amplitude = float(swing_x_amplitude)
+        """Horizontal swing amplitude of the foot point [m]."""
+        if phase_mode not in gait_kernels.PHASE_MODES:
+            raise ValueError(f"unknown phase_mode {phase_mode!r}; choose one of {', '.join(gait_kernels.PHASE_MODES)}")
+        self.phase_mode = phase_mode
+        """How the phase residual enters: ``increment`` (accumulated) or ``offset`` (from the gait clock)."""
         self.command = wp.zeros((world_count, 3), dtype=wp.float32, device=self.device)
         self.gait_id = wp.zeros(world_count, dtype=wp.int32, device=self.device)
         self.phase_residual = wp.zeros((world_count, 4), dtype=wp.float32, device=self.device)
 
-    def __getattr__(self, name):  # expose the gait state: phase, swing_psi, wheel_target, ...
+    def __getattr__(self, name):  # expose the gait state: phase, swing_psi, foot_target, ...
         state = self.__dict__.get("state")
         if state is not None and hasattr(state, name):
             return getattr(state, name)
@@ -74,5 +82,5 @@ class NominalGait:
         contact flags (W, 4) int32."""
         gait_kernels.step_nominal_gait(
             self.state, self.arrays, self.gait_id, self.command, self.phase_residual, leg_joint_pos, wheel_contact,
-            dt, self.body_height, self.swing_height,
+            dt, self.body_height, self.swing_height, self.swing_x_amplitude, self.phase_mode,
         )  # fmt: skip

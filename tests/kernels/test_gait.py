@@ -6,7 +6,7 @@ import warp as wp
 
 from wqwarp import constants
 from wqwarp.gaits import GAIT_LIBRARY, gait_index, gait_library_arrays
-from wqwarp.kernels import gait
+from wqwarp.kernels import gait, kinematics
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 H_B = constants.NOMINAL_BODY_HEIGHT
@@ -116,14 +116,14 @@ def test_nominal_wheel_velocity_eq3(device):
 class _Sim:
     """Drives step_nominal_gait for a few worlds with constant command / contact / joint positions."""
 
-    def __init__(self, device, world_count, gait_name, command=(0.0, 0.0, 0.0), contact=1):
-        self.device, self.n = device, world_count
+    def __init__(self, device, world_count, gait_name, command=(0.0, 0.0, 0.0), contact=1, phase_mode="increment"):
+        self.device, self.n, self.phase_mode = device, world_count, phase_mode
         self.gaits = gait_library_arrays(device)
         self.state = gait.NominalGaitState.allocate(world_count, device)
         self.gait_id = wp.array(np.full(world_count, gait_index(gait_name), np.int32), dtype=wp.int32, device=device)
         self.command = wp.array(np.tile(np.float32(command), (world_count, 1)), dtype=float, device=device)
         self.residual = wp.zeros((world_count, 4), dtype=float, device=device)
-        q = np.tile(np.float32(constants.DEFAULT_LEG_ANGLES * 4), (world_count, 1))
+        q = np.tile(np.float32(constants.DEFAULT_JOINT_POS[:12]), (world_count, 1))
         self.joint_pos = wp.array(q, dtype=float, device=device)
         self.contact = wp.array(
             np.broadcast_to(np.int32(contact), (world_count, 4)).copy(), dtype=wp.int32, device=device
@@ -133,7 +133,15 @@ class _Sim:
 
     def step(self, dt=DT):
         gait.step_nominal_gait(
-            self.state, self.gaits, self.gait_id, self.command, self.residual, self.joint_pos, self.contact, dt
+            self.state,
+            self.gaits,
+            self.gait_id,
+            self.command,
+            self.residual,
+            self.joint_pos,
+            self.contact,
+            dt,
+            phase_mode=self.phase_mode,
         )
 
 
@@ -145,18 +153,70 @@ def test_reset_starts_in_stance(device):
         assert np.all(sim.state.phase.numpy() >= g.df_swing)
 
 
+FOOT_XY = np.array(constants.NOMINAL_FOOT_XY)  # authors' generator: (0.0149 front / 0.0321 rear, +-0.09525)
+
+
 @pytest.mark.parametrize("device", DEVICES)
-def test_driving_targets_are_default_pose(device):
+def test_driving_targets_hold_the_authors_stance(device):
     sim = _Sim(device, 2, "driving")
     sim.step()
-    target = sim.state.wheel_target.numpy()
-    np.testing.assert_allclose(target[..., 0], 0.0, atol=1e-7)
-    np.testing.assert_allclose(target[..., 1], np.tile(SIDES * 0.1045, (2, 1)), atol=1e-7)
+    target = sim.state.foot_target.numpy()
+    # PMTG.py's driving branch: foot point x = nominal - 0.05, z = -h_b; hand values of the nominal (x, y)
+    np.testing.assert_allclose(target[..., 0], np.tile([-0.0351, -0.0351, -0.0179, -0.0179], (2, 1)), atol=1e-6)
+    np.testing.assert_allclose(target[..., 1], np.tile(SIDES * 0.09525, (2, 1)), atol=1e-7)
     np.testing.assert_allclose(target[..., 2], -H_B, atol=1e-7)
-    np.testing.assert_allclose(
-        sim.state.leg_joint_target.numpy(), np.tile(constants.DEFAULT_LEG_ANGLES * 4, (2, 1)), atol=1e-4
-    )
+    # the joint targets put the calf end there (NumPy FK of the foot point)
+    q = sim.state.leg_joint_target.numpy()[0].reshape(4, 3)
+    for leg in range(4):
+        p = kinematics.leg_fk_numpy(q[leg], SIDES[leg], constants.FOOT_IN_CALF)
+        np.testing.assert_allclose(p, target[0, leg], atol=1e-5)
     assert np.all(sim.state.swing_psi.numpy() == -1.0)
+
+
+def test_default_pose_is_the_authors_reset_stance():
+    q = np.array(constants.DEFAULT_JOINT_POS[:12]).reshape(4, 3)
+    np.testing.assert_allclose(q[:, 0], 0.1 * SIDES)  # config init_state: hip -0.1 right, +0.1 left
+    np.testing.assert_allclose(q[:, 1:], np.tile([1.08, -2.16], (4, 1)))
+    foot = np.array([kinematics.leg_fk_numpy(q[leg], SIDES[leg], constants.FOOT_IN_CALF) for leg in range(4)])
+    np.testing.assert_allclose(-foot[:, 2], 0.192, atol=1e-3)  # 0.201 along the leg, abducted by 0.1 rad
+    wheel = np.array([kinematics.leg_fk_numpy(q[leg], SIDES[leg]) for leg in range(4)])
+    # base height of the default pose: hips above ground by the wheel centre depth plus the wheel radius
+    np.testing.assert_allclose(constants.DEFAULT_BASE_HEIGHT, -wheel[0, 2] + R, atol=1e-9)
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_swing_moves_the_foot_back_then_forward(device):
+    sim = _Sim(device, 1, "trotting")
+    seen_back = seen_fwd = False
+    for _ in range(60):
+        sim.step()
+        psi = sim.state.swing_psi.numpy()[0]
+        x = sim.state.foot_target.numpy()[0, :, 0]
+        expected = FOOT_XY[:, 0] - np.where(psi >= 0, 0.05 * np.sin(2 * np.pi * np.maximum(psi, 0)), 0.0)
+        np.testing.assert_allclose(x, expected, atol=1e-6)
+        seen_back |= bool(np.any((psi > 0.1) & (psi < 0.4)))
+        seen_fwd |= bool(np.any((psi > 0.6) & (psi < 0.9)))
+    assert seen_back and seen_fwd
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_phase_residual_readings(device):
+    """increment: dphi accumulates every step; offset: phi = clock + dphi, the clock runs at f."""
+    f, steps, dphi = GAIT_LIBRARY[gait_index("trotting")].frequency, 5, 0.01
+    phases = {}
+    for mode in ("increment", "offset"):
+        sim = _Sim(device, 1, "trotting", phase_mode=mode)
+        start = sim.state.phase.numpy()[0].copy()
+        sim.residual.assign(np.full((1, 4), dphi, np.float32))
+        for _ in range(steps):
+            sim.step()
+        phases[mode] = sim.state.phase.numpy()[0]
+        clock = sim.state.clock.numpy()[0]
+        advance = steps * (f * DT + (mode == "increment") * dphi)
+        np.testing.assert_allclose(np.mod(clock - start, 1.0), np.mod(advance, 1.0), atol=1e-5)
+    np.testing.assert_allclose(np.mod(phases["increment"] - phases["offset"], 1.0), (steps - 1) * dphi, atol=1e-5)
+    with pytest.raises(ValueError, match="phase_mode"):
+        _Sim(device, 1, "trotting", phase_mode="sideways").step()
 
 
 @pytest.mark.parametrize("device", DEVICES)
@@ -170,7 +230,7 @@ def test_trot_diagonal_legs_in_phase(device):
         np.testing.assert_allclose(phase[:, 1], phase[:, 2], atol=1e-6)  # FL, RR
         np.testing.assert_allclose(np.mod(phase[:, 1] - phase[:, 0], 1.0), 0.5, atol=1e-5)
         np.testing.assert_array_equal(psi[:, 0], psi[:, 3])
-        z = sim.state.wheel_target.numpy()[..., 2]
+        z = sim.state.foot_target.numpy()[..., 2]
         np.testing.assert_allclose(z, _swing_height_np(psi), atol=1e-6)
         swung |= (psi >= 0).any(axis=0)
     assert swung.all()
@@ -203,7 +263,10 @@ def test_wheel_velocity_pure_wz(device):
     sim = _Sim(device, 2, "driving", command=(0.0, 0.0, wz))
     sim.step()
     v = sim.state.wheel_velocity.numpy()
-    d = constants.HIP_OFFSET_Y + constants.THIGH_OFFSET_Y + 0.0245  # |y| of the wheel in the default pose
+    # |y| of the wheel centre in the base frame in the default pose (inboard of the calf; hip abducted 0.1 rad)
+    q = np.array(constants.DEFAULT_JOINT_POS[:3])
+    d = constants.HIP_OFFSET_Y + abs(kinematics.leg_fk_numpy(q, -1.0)[1])
+    assert 0.10 < d < 0.13
     np.testing.assert_allclose(np.abs(v), d * wz / R, rtol=1e-5)
     left, right = SIDES > 0, SIDES < 0
     assert np.all(v[:, left] < 0) and np.all(v[:, right] > 0)  # turning left: the left wheels roll backwards
@@ -243,7 +306,7 @@ def test_gait_switching_bounds_target_jump(device, max_residual):
     sim = _Sim(device, worlds, "trotting")
     requested = np.zeros(worlds, np.int64)  # position in `sequence`
     switch_steps = np.sort(rng.integers(0, steps, size=(worlds, 40)), axis=1)  # ~ every 0.75 s at random times
-    prev_z = sim.state.wheel_target.numpy()[..., 2].copy()
+    prev_z = sim.state.foot_target.numpy()[..., 2].copy()
     prev_z[:] = -H_B
     max_jump, pending_since, max_wait = 0.0, np.zeros(worlds, int), 0
     seen = np.zeros((worlds, 3), bool)
@@ -254,7 +317,7 @@ def test_gait_switching_bounds_target_jump(device, max_residual):
         sim.gait_id.assign(req_ids)
         sim.residual.assign(rng.uniform(-max_residual, max_residual, (worlds, 4)).astype(np.float32))
         sim.step()
-        z = sim.state.wheel_target.numpy()[..., 2]
+        z = sim.state.foot_target.numpy()[..., 2]
         max_jump = max(max_jump, float(np.abs(z - prev_z).max()))
         prev_z = z.copy()
         active = sim.state.active_gait_id.numpy()

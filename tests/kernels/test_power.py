@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp.kernels.power import joule_power_term, launch_power, p_cost_term, positive_mech_power_term
+from wqwarp.kernels.power import (
+    POWER_OUTPUTS,
+    joule_power_term,
+    launch_power,
+    p_cost_term,
+    positive_mech_power_term,
+)
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 NUM_ENVS = 4
@@ -51,8 +57,8 @@ def test_power_terms_match_numpy_and_hand_values(device):
 def test_accumulate_power_averages_substeps(device):
     rng = np.random.default_rng(1)
     substeps = 4
-    sums = [wp.zeros(NUM_ENVS, dtype=wp.float32, device=device) for _ in range(3)]
-    expected = np.zeros((NUM_ENVS, 3))
+    sums = [wp.zeros(NUM_ENVS, dtype=wp.float32, device=device) for _ in POWER_OUTPUTS]
+    expected = np.zeros((NUM_ENVS, len(POWER_OUTPUTS)))
     for _ in range(substeps):
         tau = rng.uniform(-30, 30, (NUM_ENVS, 16)).astype(np.float32)
         qd = rng.uniform(-20, 20, (NUM_ENVS, DOFS)).astype(np.float32)
@@ -61,15 +67,20 @@ def test_accumulate_power_averages_substeps(device):
         launch_power(
             wp.array(tau, dtype=wp.float32, device=device),
             wp.array(qd, dtype=wp.float32, device=device),
-            *sums,
+            sums,
             weight=1.0 / substeps,
             dof_index=wp.array(np.arange(QD_START, QD_START + 16), dtype=wp.int32, device=device),
             device=device,
         )
-        expected += (
-            np_terms(tau.astype(np.float64), qd[:, QD_START : QD_START + 16].astype(np.float64)).sum(1) / substeps
-        )
-    np.testing.assert_allclose(np.stack([s.numpy() for s in sums], -1), expected, rtol=1e-5, atol=1e-4)
+        t64, qd64 = tau.astype(np.float64), qd[:, QD_START : QD_START + 16].astype(np.float64)
+        terms = np_terms(t64, qd64)  # (N, 16, 3): p_cost, p_mech, p_joule per joint
+        legs, wheels = terms[:, :12].sum(1), terms[:, 12:].sum(1)
+        expected += np.concatenate([
+            legs + wheels, np.stack([legs[:, 0], wheels[:, 0], legs[:, 1], wheels[:, 1], legs[:, 2], wheels[:, 2]], 1),
+            (t64**2).sum(1, keepdims=True), ((t64 * qd64) ** 2).sum(1, keepdims=True),
+        ], 1) / substeps  # fmt: skip
+    got = np.stack([s.numpy() for s in sums], -1)
+    np.testing.assert_allclose(got, expected, rtol=1e-5, atol=1e-2)
 
 
 @pytest.mark.parametrize("device", DEVICES)
@@ -78,14 +89,20 @@ def test_accumulate_power_hand_value(device):
     tau = np.zeros((1, 16), dtype=np.float32)
     qd = np.zeros((1, DOFS), dtype=np.float32)
     tau[0, 0], qd[0, QD_START] = 2.0, 3.0
-    sums = [wp.zeros(1, dtype=wp.float32, device=device) for _ in range(3)]
+    tau[0, 13], qd[0, QD_START + 13] = -1.0, 4.0  # FL wheel: p_cost 4, p_mech 0, joule max(0.3 - 4, 0) = 0
+    sums = [wp.zeros(1, dtype=wp.float32, device=device) for _ in POWER_OUTPUTS]
     for _ in range(2):
         launch_power(
             wp.array(tau, dtype=wp.float32, device=device),
             wp.array(qd, dtype=wp.float32, device=device),
-            *sums,
+            sums,
             dof_index=wp.array(np.arange(QD_START, QD_START + 16), dtype=wp.int32, device=device),
             weight=0.5,
             device=device,
         )
-    np.testing.assert_allclose([s.numpy()[0] for s in sums], [6.0, 6.0, 7.2], rtol=1e-6)
+    got = dict(zip(POWER_OUTPUTS, [float(s.numpy()[0]) for s in sums], strict=True))
+    expected = dict(p_cost=10.0, p_mech=6.0, p_joule=7.2, p_cost_legs=6.0, p_cost_wheels=4.0, p_mech_legs=6.0,
+                    p_mech_wheels=0.0, p_joule_legs=7.2, p_joule_wheels=0.0, torque_sq=5.0, power_sq=52.0)  # fmt: skip
+    assert got == pytest.approx(expected, rel=1e-6)
+    with pytest.raises(ValueError, match="output arrays"):
+        launch_power(wp.array(tau), wp.array(qd), sums[:3], dof_index=wp.zeros(16, dtype=wp.int32), weight=1.0)

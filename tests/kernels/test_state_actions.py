@@ -54,9 +54,10 @@ def test_mujoco_newton_round_trip_and_free_joint_convention(device):
 def test_residual_targets_add_clip_and_invert(device):
     n = 2
     side = np.asarray(C.LEG_SIDE_SIGN)
-    p_n = np.zeros((n, 4, 3), np.float32)
-    p_n[:, :, 1] = side * (C.THIGH_OFFSET_Y + 0.0245)
-    p_n[:, :, 2] = -0.2
+    # foot-point targets: the default pose's foot points (FK of the authors' reset stance)
+    q_default = np.asarray(C.DEFAULT_JOINT_POS[:12]).reshape(4, 3)
+    p_n = np.stack([leg_fk_numpy(q_default[k], side[k], C.FOOT_IN_CALF) for k in range(4)]).astype(np.float32)
+    p_n = np.tile(p_n[None], (n, 1, 1))
     action = np.zeros((n, 20), np.float32)
     action[0, 4:7] = (0.1, 0.0, 0.25)  # FR: dp = (0.02, 0, 0.05) m
     action[1, 4:7] = (5.0, 0.0, 0.0)  # clipped to 0.3 m... then IK clamps to the workspace
@@ -73,9 +74,9 @@ def test_residual_targets_add_clip_and_invert(device):
         np.testing.assert_allclose(v.numpy()[0], np.clip(base + 5.0 * np.array([1, -1, 20, 0]), -40, 40))
     np.testing.assert_allclose(dp.numpy()[0, 0], (0.02, 0.0, 0.05), atol=1e-6)
     np.testing.assert_allclose(dp.numpy()[1, 0], (0.3, 0.0, 0.0), atol=1e-6)
-    fk = leg_fk_numpy(q.numpy()[0, 0:3].astype(np.float64), side[0])
-    np.testing.assert_allclose(fk, p_n[0, 0] + (0.02, 0.0, 0.05), atol=1e-4)  # IK of p_n + dp
-    np.testing.assert_allclose(q.numpy()[0, 3:], np.tile(C.DEFAULT_LEG_ANGLES, 3), atol=1e-4)  # dp = 0 legs
+    fk = leg_fk_numpy(q.numpy()[0, 0:3].astype(np.float64), side[0], C.FOOT_IN_CALF)
+    np.testing.assert_allclose(fk, p_n[0, 0] + (0.02, 0.0, 0.05), atol=1e-4)  # foot IK of p_n + dp
+    np.testing.assert_allclose(q.numpy()[0, 3:], C.DEFAULT_JOINT_POS[3:12], atol=1e-4)  # dp = 0 legs
 
 
 @pytest.mark.parametrize("device", DEVICES)
@@ -87,5 +88,5 @@ def test_joint_offset_targets(device):
     default = wp.array(np.asarray(C.DEFAULT_JOINT_POS[:12], np.float32), dtype=wp.float32, device=device)
     wp.launch(joint_offset_targets, dim=1, inputs=[wp.array(a, dtype=wp.float32, device=device), default, 0.25, 5.0,
               40.0], outputs=[q, v], device=device)  # fmt: skip
-    assert q.numpy()[0, 1] == pytest.approx(C.DEFAULT_LEG_ANGLES[1] + 0.25)
+    assert q.numpy()[0, 1] == pytest.approx(C.DEFAULT_JOINT_POS[1] + 0.25)
     np.testing.assert_allclose(v.numpy()[0], (10.0, 40.0, 0.0, 0.0))

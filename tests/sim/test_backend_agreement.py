@@ -22,7 +22,7 @@ def _rollout(backend: str) -> list[np.ndarray]:
     legs = np.tile(np.asarray(C.DEFAULT_JOINT_POS[:12], np.float32), (2, 1))
     out, p_cost = [], []
     for i in range(50):
-        legs[1, 1::3] = C.DEFAULT_LEG_ANGLES[1] + 0.15 * np.sin(2 * np.pi * 1.5 * i * sim.policy_dt)
+        legs[1, 1::3] = C.DEFAULT_JOINT_POS[1] + 0.15 * np.sin(2 * np.pi * 1.5 * i * sim.policy_dt)
         sim.leg_q_target.assign(legs)
         sim.step()
         p_cost.append(sim.p_cost.numpy().copy())

@@ -56,16 +56,25 @@ class SimConfig:
     """Leg PD stiffness [N m/rad] (authors' public harness: Kp 40)."""
     leg_kd: float = 1.0
     """Leg PD damping [N m s/rad] (harness: Kd 1)."""
-    wheel_kp: float = 2.0
-    """Wheel velocity-PID proportional gain [N m s/rad]. Chosen with ``tools/wheel_step_response.py`` (0.5 m/s step,
-    dt 0.005): kp 2 rises in 0.04 s (torque-limited); kp 3-4 oscillates (80-90 % overshoot). The authors' harness
-    also uses a wheel velocity gain of 2."""
-    wheel_ki: float = 5.0
-    """Wheel velocity-PID integral gain [N m/rad]: steady error 0.2 % with 10 % overshoot (ki 20: 9 %, 0.05 %)."""
+    wheel_kp: float = 0.5
+    """Wheel velocity-PID proportional gain [N m s/rad]. Bounded by the airborne wheel: the loop computes its torque
+    from the velocity at the start of each substep (explicit feedback), which is stable on a free wheel only for
+    kp dt / I < 2 and free of ringing for kp dt / I <= 1, I = ``constants.WHEEL_AIRBORNE_INERTIA`` = 2.75e-3 kg m^2.
+    kp 0.5 gives 0.91 at dt 0.005 and 0.18 at dt 0.001, so swing wheels neither chatter nor ring at either step;
+    kp 2 (the authors' harness gain, whose wheel armature is 0.01) gives 3.6 at dt 0.005: +-6 N m every substep,
+    131 W for four idle wheels. Measured with ``tools/wheel_step_response.py`` (README, "Wheel control")."""
+    wheel_ki: float = 2.0
+    """Wheel velocity-PID integral gain [N m/rad]: removes the steady error under a load torque (slopes, friction)
+    that the small kp alone would leave. ki 5 overshoots a loaded 0.5 m/s step by 25 %, ki 2 by 16 % (P alone 11 %),
+    with 0.6 % steady error after 2 s (README, "Wheel control")."""
     wheel_kd: float = 0.0
-    """Wheel velocity-PID derivative gain [N m s^2/rad]; 0: kd 0.005 already destabilises the loop at dt 0.005."""
-    wheel_i_limit: float = 1.0
-    """Anti-windup bound of the wheel-PID integral [rad]: ki * limit = 5 N m, under the 6 N m torque limit."""
+    """Wheel velocity-PID derivative gain [N m s^2/rad]; 0: any kd acts on a velocity difference (an acceleration)
+    and with the substep's explicit update destabilises the airborne loop first."""
+    wheel_i_limit: float = 2.5
+    """Anti-windup bound of the wheel-PID integral [rad]: ki * limit = 5 N m, under the 6 N m torque limit, so the
+    integral can hold a wheel against the ~2 N m scrub torque of skid-steer turning."""
+    check_wheel_stability: bool = True
+    """Refuse wheel gains whose airborne loop is unstable (kp dt / I >= 2). Off only to study that loop."""
     nthread: int | None = None
     """CPU threads for ``mujoco_cpu`` (default: all cores)."""
     cuda_graph: bool = True
@@ -93,6 +102,15 @@ class SimConfig:
             raise ValueError(f"num_envs must be >= 1, got {self.num_envs}")
         if not (self.dt > 0.0 and self.decimation >= 1):
             raise ValueError(f"need dt > 0 and decimation >= 1, got dt={self.dt}, decimation={self.decimation}")
+        if min(self.wheel_kp, self.wheel_ki, self.wheel_kd, self.wheel_i_limit) < 0.0:
+            raise ValueError("wheel PID gains and integral bound must be >= 0")
+        margin = self.wheel_kp * self.dt / C.WHEEL_AIRBORNE_INERTIA
+        if self.check_wheel_stability and margin >= 2.0:
+            raise ValueError(
+                f"wheel_kp {self.wheel_kp} at dt {self.dt} makes an airborne wheel's speed loop unstable "
+                f"(kp dt / I = {margin:.2f} >= 2, I = {C.WHEEL_AIRBORNE_INERTIA:.2e} kg m^2): use "
+                f"wheel_kp < {2.0 * C.WHEEL_AIRBORNE_INERTIA / self.dt:.2f}"
+            )
         self.resolved_backend()
 
 
@@ -110,6 +128,14 @@ class _Buffers:
     p_cost: wp.array
     p_mech: wp.array
     p_joule: wp.array
+    p_cost_legs: wp.array
+    p_cost_wheels: wp.array
+    p_mech_legs: wp.array
+    p_mech_wheels: wp.array
+    p_joule_legs: wp.array
+    p_joule_wheels: wp.array
+    torque_sq: wp.array
+    power_sq: wp.array
     wheel_force: wp.array
     wheel_contact: wp.array  # int32
     body_collision: wp.array  # int32
@@ -129,7 +155,9 @@ class Simulator:
     Control inputs (write before :meth:`step`): ``leg_q_target`` (N, 12) [rad], ``wheel_qd_target`` (N, 4) [rad/s],
     ``motor_strength`` (N, 16) [-]. Outputs after :meth:`step`: ``joint_q`` (N, 23), ``joint_qd`` (N, 22),
     ``body_q`` (N, 21) transforms, ``body_qd`` (N, 21) spatial vectors, ``joint_torque`` (N, 16) [N m] (last
-    substep), ``p_cost`` / ``p_mech`` / ``p_joule`` (N,) [W] averaged over the substeps, ``wheel_force`` (N, 4) [N],
+    substep), ``p_cost`` / ``p_mech`` / ``p_joule`` (N,) [W] averaged over the substeps, each also split into
+    ``*_legs`` and ``*_wheels``, ``torque_sq`` / ``power_sq`` (N,) substep averages of sum tau^2 and sum (tau qd)^2
+    (``wqwarp.kernels.power``), ``wheel_force`` (N, 4) [N],
     ``wheel_contact`` (N, 4) and ``body_collision`` (N, 9) int32 flags, ``actuated_q`` / ``actuated_qd`` (N, 16) the
     actuated joints in project order (``wqwarp.constants``).
     """
@@ -167,9 +195,7 @@ class Simulator:
                 joint_torque=wp.zeros((n, 16), dtype=f32),
                 wheel_integral=wp.zeros((n, 4), dtype=f32),
                 wheel_prev_error=wp.zeros((n, 4), dtype=f32),
-                p_cost=wp.zeros(n, dtype=f32),
-                p_mech=wp.zeros(n, dtype=f32),
-                p_joule=wp.zeros(n, dtype=f32),
+                **{name: wp.zeros(n, dtype=f32) for name in power.POWER_OUTPUTS},
                 wheel_force=wp.zeros((n, 4), dtype=f32),
                 wheel_contact=wp.zeros((n, 4), dtype=wp.int32),
                 body_collision=wp.zeros((n, len(C.COLLISION_BODY_NAMES)), dtype=wp.int32),
@@ -218,7 +244,7 @@ class Simulator:
             wheel_i_limit=cfg.wheel_i_limit, dt=cfg.dt, device=self.device, record_cmd=True,
         )  # fmt: skip
         pwr = power.launch_power(
-            b.joint_torque, self.joint_qd, b.p_cost, b.p_mech, b.p_joule, self.dof_index,
+            b.joint_torque, self.joint_qd, [getattr(b, k) for k in power.POWER_OUTPUTS], self.dof_index,
             weight=1.0 / cfg.decimation, device=self.device, record_cmd=True,
         )  # fmt: skip
         return [act, pwr]
@@ -233,9 +259,8 @@ class Simulator:
 
         ``actuate=False`` skips the actuation and power kernels and keeps the last joint torques (benchmarks)."""
         b = self.buf
-        b.p_cost.zero_()
-        b.p_mech.zero_()
-        b.p_joule.zero_()
+        for name in power.POWER_OUTPUTS:
+            getattr(b, name).zero_()
         if self.backend == "mujoco_cpu":
             self._step_mujoco_cpu(actuate)
         else:

@@ -1,0 +1,109 @@
+"""tools/energy_audit.py: group powers add up, driving costs wheel power, airborne wheels settle quietly, the JSON
+holds the documented fields, and bad input exits 2 without writing."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TOOL = os.path.join(ROOT, "tools", "energy_audit.py")
+
+_spec = importlib.util.spec_from_file_location("energy_audit", TOOL)
+energy_audit = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(energy_audit)
+
+SHORT = {"warmup": 0.3, "seconds": 0.5, "num_envs": 1}
+
+
+@pytest.fixture(scope="module")
+def audit_default_dt() -> dict:
+    """Three scenarios at the default physics setting (dt 0.005 x 4), short window, one robot."""
+    return energy_audit.audit(["standing", "drive_1.0", "air_wheels"], [(0.005, 4)], quiet=True, **SHORT)
+
+
+def test_legs_plus_wheels_equal_the_total(audit_default_dt):
+    for name, entry in audit_default_dt.items():
+        r = entry["results"]["0.005x4"]
+        for p in ("p_cost", "p_mech", "p_joule"):
+            assert r[p + "_legs"] + r[p + "_wheels"] == pytest.approx(r[p], rel=1e-4, abs=1e-4), (name, p)
+            assert r[p + "_legs"] >= 0 and r[p + "_wheels"] >= 0
+
+
+def test_driving_costs_more_wheel_power_than_standing(audit_default_dt):
+    standing = audit_default_dt["standing"]["results"]["0.005x4"]
+    driving = audit_default_dt["drive_1.0"]["results"]["0.005x4"]
+    assert driving["p_cost_wheels"] > standing["p_cost_wheels"] + 1.0
+    assert driving["v_x"] > 0.5 and abs(standing["v_x"]) < 0.1
+    assert not standing["trunk_touched"] and not driving["trunk_touched"]
+    assert 0.2 < standing["height"] < 0.35
+
+
+def test_airborne_wheels_hold_their_speed_without_chattering(audit_default_dt):
+    """Acceptance criterion of the wheel-PID tuning: in free fall a wheel at constant speed needs ~no torque."""
+    r = audit_default_dt["air_wheels"]["results"]["0.005x4"]
+    assert r["start_height"] >= 50.0 and not r["trunk_touched"]
+    assert sum(r["p_cost_per_wheel"]) == pytest.approx(r["p_cost_wheels"], rel=1e-3, abs=1e-3)
+    assert r["wheel_torque_substep_pairs"] > 0
+    assert max(r["p_cost_per_wheel"]) < 0.5, r["p_cost_per_wheel"]
+    assert r["wheel_torque_sign_flips"] == 0
+    assert r["wheel_speed"] == pytest.approx([5.0] * 4, abs=0.1)
+
+
+def test_json_has_the_documented_fields(tmp_path, capsys):
+    out = tmp_path / "audit.json"
+    argv = ["--scenarios", "standing", "--settings", "0.005x4,0.001x20", "--warmup", "0.1", "--seconds", "0.2",
+            "--num-envs", "1", "--json", str(out), "--quiet"]  # fmt: skip
+    assert energy_audit.main(argv) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ""  # --quiet
+    assert captured.out.startswith("| scenario | p_cost dt0.005 [W] (legs / wheels) | p_cost dt0.001 [W]")
+    assert "| standing |" in captured.out
+    data = json.loads(out.read_text())
+    assert "--scenarios standing" in data["command"]
+    assert set(data["git"]) == {"commit", "dirty"}
+    assert [s["name"] for s in data["settings"]] == ["0.005x4", "0.001x20"]
+    assert [s["policy_dt"] for s in data["settings"]] == pytest.approx([0.02, 0.02])
+    entry = data["scenarios"]["standing"]
+    fine, coarse = entry["results"]["0.001x20"], entry["results"]["0.005x4"]
+    for r in (fine, coarse):
+        assert r["window_steps"] == 10 and r["warmup_steps"] == 5
+        for key in ("p_cost", "p_cost_legs", "p_cost_wheels", "p_mech", "p_joule", "v_x", "w_z", "height"):
+            assert isinstance(r[key], float), key
+        assert isinstance(r["trunk_touched"], bool)
+    assert entry["ratio"]["p_cost"] == pytest.approx(coarse["p_cost"] / fine["p_cost"])
+    assert entry["ratio"]["p_cost_legs"] == pytest.approx(coarse["p_cost_legs"] / fine["p_cost_legs"])
+    assert [p for p in os.listdir(tmp_path)] == ["audit.json"]  # no temporary file left behind
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--settings", "0.005y4"], "malformed setting"),
+        (["--settings", "0.005x0"], "malformed setting"),
+        (["--seconds", "0"], "--seconds"),
+        (["--warmup", "-1"], "--warmup"),
+        (["--num-envs", "0"], "--num-envs"),
+    ],
+)
+def test_bad_input_exits_2_without_writing(tmp_path, capsys, argv, message):
+    assert energy_audit.main([*argv, "--json", str(tmp_path / "a.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and message in err and err.count("\n") == 1
+    assert not any(tmp_path.iterdir())
+
+
+def test_command_line_rejects_unknown_scenario_and_missing_directory(tmp_path):
+    r = subprocess.run([sys.executable, TOOL, "--scenarios", "standing,nope", "--json", str(tmp_path / "a.json")],
+                       capture_output=True, text=True, cwd=ROOT)  # fmt: skip
+    assert r.returncode == 2 and r.stdout == ""
+    assert [line for line in r.stderr.splitlines() if line.startswith("error: ")] == [
+        "error: unknown scenario nope; choose from " + ", ".join(energy_audit.SCENARIOS)
+    ]
+    assert energy_audit.main(["--scenarios", "standing", "--json", str(tmp_path / "missing" / "a.json")]) == 2
+    assert not any(tmp_path.iterdir())
