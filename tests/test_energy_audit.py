@@ -107,3 +107,16 @@ def test_command_line_rejects_unknown_scenario_and_missing_directory(tmp_path):
     ]
     assert energy_audit.main(["--scenarios", "standing", "--json", str(tmp_path / "missing" / "a.json")]) == 2
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.slow
+def test_default_timestep_keeps_the_energy_picture(tmp_path):
+    """Acceptance: for every audit scenario p_cost at dt 0.005 x 4 is within 1.3x of the paper's dt 0.001 x 20."""
+    out = tmp_path / "audit.json"
+    assert energy_audit.main(["--json", str(out), "--quiet"]) == 0
+    data = json.loads(out.read_text())
+    for name, sc in data["scenarios"].items():
+        if name == "air_wheels":  # ~0 W over ~0 W
+            continue
+        assert 1 / 1.3 <= sc["ratio"]["p_cost"] <= 1.3, (name, sc["ratio"])
+    assert data["scenarios"]["standing"]["results"]["0.005x4"]["p_cost"] < 10.0

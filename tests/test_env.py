@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
+import warp as wp
 
 from wqwarp.config import PRESETS, REWARD_TERMS, RewardConfig, make_preset
 from wqwarp.env import PRIVILEGED_DIM, WheeledGo1Env, decode_observation, observation_layout
@@ -33,6 +34,22 @@ def test_shapes_and_groups(env):
     assert obs["privileged"].shape == (N, PRIVILEGED_DIM)
     o, r, d, extras = env.step(torch.zeros(N, env.num_actions))
     assert r.shape == (N,) and d.shape == (N,) and extras["time_outs"].shape == (N,)
+
+
+def test_power_is_logged_per_joint_group_and_the_energy_terms_read_the_substep_average(env):
+    a = torch.randn(N, env.num_actions, generator=torch.Generator().manual_seed(0))
+    _, _, _, extras = env.step(a)
+    log = extras["log"]
+    total = float(log["Metrics/p_cost"])
+    assert total > 0.0
+    assert float(log["Metrics/p_cost_legs"]) + float(log["Metrics/p_cost_wheels"]) == pytest.approx(total, rel=1e-4)
+    for k in ("p_mech_legs", "p_mech_wheels", "p_joule_legs", "p_joule_wheels"):
+        assert f"Metrics/{k}" in log
+    # the reward's energy term is -1e-5 * substep-averaged sum (tau qd)^2 * dt, not the last substep's value
+    terms = wp.to_torch(env.reward_terms_wp)
+    k = REWARD_TERMS.index("energy")
+    expected = -1e-5 * env.tv["power_sq"] * env.dt
+    torch.testing.assert_close(terms[:, k], expected, rtol=1e-4, atol=1e-7)
 
 
 def test_observation_decodes_into_named_parts(env):

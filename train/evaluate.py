@@ -21,6 +21,17 @@ import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 
+def _git_commit() -> str:
+    import subprocess
+
+    try:
+        root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+        out = subprocess.run(["git", "-C", root, "rev-parse", "HEAD"], capture_output=True, text=True, check=True)
+        return out.stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
 def main(argv=None) -> int:
     from wqwarp.config import PRESETS
     from wqwarp.evaluation import TASKS
@@ -64,7 +75,7 @@ def main(argv=None) -> int:
         return 2
     results = []
     print(f"{runner.preset} checkpoint (iteration {runner.iteration}), {args.num_envs} robots, {args.seconds:g} s")
-    print(f"{'task':>6} {'MSE':>8} {'|err|':>8} {'p_cost [W]':>11} {'upright':>8}")
+    print(f"{'task':>6} {'MSE':>8} {'|err|':>8} {'p_cost [W]':>11} {'legs':>7} {'wheels':>7} {'upright':>8}")
     for t in tasks:
 
         def show(k, n, t=t):
@@ -73,10 +84,24 @@ def main(argv=None) -> int:
 
         r = run_task(runner, t, args.seconds, max_push=args.push, progress=show)
         results.append(dataclasses.asdict(r))
-        print(f"\r{t:>6} {r.mse:8.4f} {r.mean_abs_error:8.3f} {r.mean_p_cost:11.1f} {100 * r.upright:7.1f}%")
+        print(
+            f"\r{t:>6} {r.mse:8.4f} {r.mean_abs_error:8.3f} {r.mean_p_cost:11.1f} {r.mean_p_cost_legs:7.1f} "
+            f"{r.mean_p_cost_wheels:7.1f} {100 * r.upright:7.1f}%"
+        )
     if args.json:
         with open(args.json + ".tmp", "w", encoding="utf-8") as f:
-            json.dump({"checkpoint": args.checkpoint, "preset": runner.preset, "results": results}, f, indent=2)
+            json.dump(
+                {
+                    "checkpoint": args.checkpoint,
+                    "preset": runner.preset,
+                    "iteration": runner.iteration,
+                    "command": " ".join(sys.argv),
+                    "commit": _git_commit(),
+                    "results": results,
+                },
+                f,
+                indent=2,
+            )
         os.replace(args.json + ".tmp", args.json)
     return 0
 

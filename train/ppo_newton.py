@@ -90,6 +90,13 @@ def parse_args(argv=None) -> argparse.Namespace:
         action="store_true",
         help="debug: feed the true base velocity and height to the policy instead of the estimator's",
     )
+    p.add_argument(
+        "--phase-residual",
+        choices=("increment", "offset"),
+        default=None,
+        help="how the policy's phase residual enters the gait phase: increment (accumulated every policy step; the "
+        "default, measured better) or offset (an offset from the gait clock, as the authors' generator PMTG.py)",
+    )
     p.add_argument("--no-export", action="store_true", help="skip the TorchScript / ONNX export at the end")
     return p.parse_args(argv)
 
@@ -144,12 +151,14 @@ class Progress:
             "iteration": it + 1, "mean_reward": statistics.mean(r) if len(r) else float("nan"),
             "vx_error": mean("Metrics/vx_error"), "vy_error": mean("Metrics/vy_error"),
             "wz_error": mean("Metrics/wz_error"), "p_cost": mean("Metrics/p_cost"), "steps_per_s": sps,
+            "p_cost_legs": mean("Metrics/p_cost_legs"), "p_cost_wheels": mean("Metrics/p_cost_wheels"),
         }  # fmt: skip
         bar = "#" * int(20 * frac) + "-" * (20 - int(20 * frac))
         m = self.metrics
         status = (f"[{bar}] {it + 1}/{self.total} ETA {datetime.timedelta(seconds=int(eta))} | "
                   f"reward {m['mean_reward']:7.2f} | err vx {m['vx_error']:.2f} vy {m['vy_error']:.2f} "
-                  f"wz {m['wz_error']:.2f} | power {m['p_cost']:6.1f} W | {sps:6.0f} steps/s")  # fmt: skip
+                  f"wz {m['wz_error']:.2f} | power {m['p_cost']:6.1f} W (legs {m['p_cost_legs']:5.1f}, wheels "
+                  f"{m['p_cost_wheels']:5.1f}) | {sps:6.0f} steps/s")  # fmt: skip
         print("\r" + status, end="", flush=True)
         if (it + 1) % 10 == 0 or it + 1 == self.total:
             print(flush=True)
@@ -192,6 +201,8 @@ def main(argv=None) -> int:
     cfg.sim.decimation = args.decimation
     cfg.seed = args.seed + rank
     cfg.estimator.use_true_state = args.true_state
+    if args.phase_residual is not None:
+        cfg.action.phase_residual_mode = args.phase_residual
     tcfg = TrainConfig(max_iterations=args.max_iterations, save_interval=args.save_interval,
                        num_steps_per_env=args.num_steps_per_env)  # fmt: skip
     print(f"wqwarp: preset {args.preset}, {args.num_envs} robots on {device}, log dir {log_dir}", flush=True)

@@ -157,6 +157,8 @@ class WheeledGo1Env(VecEnv):
         self._down = torch.tensor([[0.0, 0.0, -1.0]], device=dev)
         self._command_scale = torch.tensor([o.lin_vel_scale, o.lin_vel_scale, o.ang_vel_scale], device=dev)
         self._estimate_scale = torch.tensor([o.lin_vel_scale, o.lin_vel_scale, 1.0], device=dev)
+        self.learn_estimator = True
+        """Fit the estimator on the collected (history, true state) pairs; evaluation and playback set it False."""
         self.extras: dict = {}
         self._reset_envs(torch.arange(n, device=dev))
         self._obs = self._compute_observations()
@@ -208,7 +210,7 @@ class WheeledGo1Env(VecEnv):
             self._resample_commands(resample)
         if self.push_interval_steps and self.common_step_counter % self.push_interval_steps == 0:
             self._push_robots()
-        self._obs = self._compute_observations(train_estimator=True)
+        self._obs = self._compute_observations(train_estimator=self.learn_estimator)
         return self._obs, rewards.clone(), dones.to(torch.long), self.extras
 
     def reset(self) -> TensorDict:
@@ -252,6 +254,12 @@ class WheeledGo1Env(VecEnv):
             "Metrics/vy_error": err[:, 1].mean(),
             "Metrics/wz_error": werr.mean(),
             "Metrics/p_cost": self.tv["p_cost"].mean(),
+            "Metrics/p_cost_legs": self.tv["p_cost_legs"].mean(),
+            "Metrics/p_cost_wheels": self.tv["p_cost_wheels"].mean(),
+            "Metrics/p_mech_legs": self.tv["p_mech_legs"].mean(),
+            "Metrics/p_mech_wheels": self.tv["p_mech_wheels"].mean(),
+            "Metrics/p_joule_legs": self.tv["p_joule_legs"].mean(),
+            "Metrics/p_joule_wheels": self.tv["p_joule_wheels"].mean(),
             "Metrics/estimator_loss": torch.tensor(self.estimator_trainer.last_loss),
         }
 

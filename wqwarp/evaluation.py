@@ -31,6 +31,10 @@ class EvalResult:
     """Mean absolute tracking error of the commanded axis [m/s or rad/s]."""
     mean_p_cost: float
     """Mean p_cost [W]."""
+    mean_p_cost_legs: float
+    """Mean p_cost of the 12 leg joints [W]."""
+    mean_p_cost_wheels: float
+    """Mean p_cost of the 4 wheels [W]."""
     upright: float
     """Share of robots whose trunk never touched the ground [-]."""
     max_push: float = 0.0
@@ -51,6 +55,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     if task not in TASKS:
         raise ValueError(f"unknown task {task!r}; choose from {', '.join(TASKS)}")
     env = runner.env
+    env.learn_estimator = False  # nothing learns during evaluation
     n = env.num_envs
     env.cfg.commands.resampling_time = 1e9
     env.max_episode_length = int(np.ceil((seconds + 1.0) / env.dt))
@@ -63,7 +68,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     settle_steps = int(round(settle / env.dt))
     push_steps = int(round(push_interval / env.dt)) if max_push > 0 else 0
     fell = torch.zeros(n, dtype=torch.bool, device=env.device)
-    sq, ab, power, count = (torch.zeros(n, device=env.device) for _ in range(4))
+    sq, ab, power, legs, wheels, count = (torch.zeros(n, device=env.device) for _ in range(6))
     for k in range(steps):
         if push_steps and k > 0 and k % push_steps == 0:
             env.cfg.domain_rand.push_max_vel = max_push
@@ -78,6 +83,8 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
             sq += err**2
             ab += err.abs()
             power += env.tv["p_cost"]
+            legs += env.tv["p_cost_legs"]
+            wheels += env.tv["p_cost_wheels"]
             count += 1
         if progress is not None:
             progress(k + 1, steps)
@@ -87,5 +94,6 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     return EvalResult(
         task=task, num_robots=n, seconds=seconds, mse=float((sq / c)[sel].mean()),
         mean_abs_error=float((ab / c)[sel].mean()), mean_p_cost=float((power / c)[sel].mean()),
+        mean_p_cost_legs=float((legs / c)[sel].mean()), mean_p_cost_wheels=float((wheels / c)[sel].mean()),
         upright=float(ok.float().mean()), max_push=max_push,
     )  # fmt: skip

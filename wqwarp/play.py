@@ -55,6 +55,7 @@ def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, devic
     preset = preset or checkpoint_preset(checkpoint) or "no_predictor"
     cfg = cfg or make_env_config(preset, num_envs, device)
     env = WheeledGo1Env(cfg)
+    env.learn_estimator = False  # playback, evaluation and export use the checkpoint's estimator as it is
     with contextlib.redirect_stdout(io.StringIO()):
         runner = WqRunner(env, TrainConfig().rsl_rl_dict(), log_dir=None, device=env.device)
     runner.load(checkpoint)
