@@ -93,7 +93,7 @@ def swing_progress(phi: float, df_swing: float) -> float:
 
 @wp.func
 def swing_height(psi: float, h_b: float, h_s: float) -> float:
-    """Eq. (2) swing height F(psi): wheel-centre z in the hip frame [m].
+    """Eq. (2) swing height F(psi): foot-point (calf end) z in the hip frame [m].
 
     F = -h_b + h_s (-16 psi^3 + 12 psi^2) for psi in [0, 0.5], -h_b + h_s (16 psi^3 - 36 psi^2 + 24 psi - 4) for
     psi in (0.5, 1]; -h_b in stance (psi < 0). h_b body height [m], h_s swing height [m]. F(0) = F(1) = -h_b,

@@ -120,3 +120,11 @@ def test_default_timestep_keeps_the_energy_picture(tmp_path):
             continue
         assert 1 / 1.3 <= sc["ratio"]["p_cost"] <= 1.3, (name, sc["ratio"])
     assert data["scenarios"]["standing"]["results"]["0.005x4"]["p_cost"] < 10.0
+
+
+def test_authors_model_comparison_refuses_a_missing_model(tmp_path):
+    tool = os.path.join(ROOT, "tools", "compare_authors_model.py")
+    out = tmp_path / "x.json"
+    r = subprocess.run([sys.executable, tool, "--mjcf", str(tmp_path / "nope.xml"), "--json", str(out)],
+                       capture_output=True, text=True)  # fmt: skip
+    assert r.returncode == 2 and "no such MJCF" in r.stderr and not out.exists()

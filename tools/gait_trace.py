@@ -72,7 +72,7 @@ def plot(rows: np.ndarray, path: str, title: str) -> None:
         ax[1].plot(t, rows[:, 9 + i], label=names[i])
         ax[2].plot(t, rows[:, 13 + i], label=names[i])
     ax[0].set_ylabel("phase [cycles]")
-    ax[1].set_ylabel("wheel-centre z, hip frame [m]")
+    ax[1].set_ylabel("foot-point z, hip frame [m]")
     ax[2].set_ylabel("nominal wheel speed [rad/s]")
     ax[2].set_xlabel("t [s]")
     ax[0].legend(ncol=4, fontsize=8)

@@ -147,7 +147,7 @@ def _default_base_height() -> float:
 
 
 DEFAULT_BASE_HEIGHT = _default_base_height()
-"""Trunk-origin height of the default pose on flat ground [m] (~0.30 m: wheel centre 0.225 m below the hips)."""
+"""Trunk-origin height of the default pose on flat ground [m] (0.292 m: wheel centre 0.217 m below the hips)."""
 
 # --- Bodies used for contact / collision reporting ---------------------------------------------------------------
 TRUNK_BODY = "trunk"

@@ -41,7 +41,7 @@ class NominalGait:
         self.arrays = gait_library_arrays(self.device, library)
         self.state = gait_kernels.NominalGaitState.allocate(world_count, self.device)
         self.body_height = float(body_height)
-        """h_b: wheel centre below the hip in stance [m]."""
+        """h_b: foot point (calf end) below the hip in stance [m]."""
         self.swing_height = float(swing_height)
         """h_s: swing clearance [m]."""
         self.swing_x_amplitude = float(swing_x_amplitude)
