@@ -141,3 +141,18 @@ def test_each_preset_builds_and_steps(preset):
 def test_unknown_preset_is_a_clear_error():
     with pytest.raises(ValueError, match="known presets"):
         make_preset("ours_v2")
+
+
+def test_evaluation_uses_the_phase_reading_the_checkpoint_was_trained_with(tmp_path):
+    from wqwarp.play import checkpoint_phase_residual_mode
+
+    cfg = make_preset("no_predictor")
+    cfg.action.phase_residual_mode = "increment"
+    from wqwarp.config import to_dict
+
+    path = tmp_path / "model_1.pt"
+    torch.save({"infos": {"env_cfg": to_dict(cfg)}}, path)
+    assert checkpoint_phase_residual_mode(str(path)) == "increment"
+    torch.save({"infos": {"env_cfg": {"action": {}}}}, path)  # written before the setting existed
+    assert checkpoint_phase_residual_mode(str(path)) == "increment"
+    assert make_preset("no_predictor").action.phase_residual_mode == "offset"  # the default

@@ -94,8 +94,9 @@ def parse_args(argv=None) -> argparse.Namespace:
         "--phase-residual",
         choices=("increment", "offset"),
         default=None,
-        help="how the policy's phase residual enters the gait phase: increment (accumulated every policy step; the "
-        "default, measured better) or offset (an offset from the gait clock, as the authors' generator PMTG.py)",
+        help="how the policy's phase residual enters the gait phase: offset (an offset from the gait clock, as the "
+        "authors' generator PMTG.py; the default) or increment (accumulated every policy step: the policy can stop "
+        "the gait clock, see the README)",
     )
     p.add_argument("--no-export", action="store_true", help="skip the TorchScript / ONNX export at the end")
     return p.parse_args(argv)

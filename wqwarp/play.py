@@ -44,6 +44,17 @@ def make_env_config(preset: str, num_envs: int, device: str, evaluation: bool = 
     return cfg
 
 
+def checkpoint_phase_residual_mode(path: str) -> str:
+    """The phase-residual reading a checkpoint was trained with (its saved ``env_cfg``). Checkpoints written before
+    the reading became a setting were trained with ``increment``."""
+    import torch
+
+    ckpt = torch.load(path, map_location="cpu", weights_only=False)
+    infos = ckpt.get("infos") or {} if isinstance(ckpt, dict) else {}
+    env_cfg = infos.get("env_cfg", {}) if isinstance(infos, dict) else {}
+    return env_cfg.get("action", {}).get("phase_residual_mode", "increment")
+
+
 def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, device: str = "cpu",
                        cfg: EnvConfig | None = None) -> PolicyRunner:  # fmt: skip
     """Build the environment of ``preset`` (default: the one recorded with the checkpoint) and load the policy and
@@ -53,7 +64,10 @@ def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, devic
     if not os.path.isfile(checkpoint):
         raise ValueError(f"no such checkpoint: {checkpoint}")
     preset = preset or checkpoint_preset(checkpoint) or "no_predictor"
-    cfg = cfg or make_env_config(preset, num_envs, device)
+    if cfg is None:
+        cfg = make_env_config(preset, num_envs, device)
+        # until the whole configuration round-trips from checkpoints, at least the gait reading must match
+        cfg.action.phase_residual_mode = checkpoint_phase_residual_mode(checkpoint)
     env = WheeledGo1Env(cfg)
     env.learn_estimator = False  # playback, evaluation and export use the checkpoint's estimator as it is
     with contextlib.redirect_stdout(io.StringIO()):

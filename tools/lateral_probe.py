@@ -1,0 +1,137 @@
+"""Why is lateral velocity not learned? Probe a trained policy, or the action space open loop.
+
+Usage::
+
+    python tools/lateral_probe.py --checkpoint runs/X/model_999.pt [--json out.json]
+    python tools/lateral_probe.py --open-loop [--amplitudes 0,0.03,0.06] [--json out.json]
+
+``--checkpoint``: 8 robots (no domain randomisation, estimator frozen), each holding one v_y command from -0.7 to
+0.7 m/s (v_x = w = 0) for ``--seconds``; after 2 s prints per robot the achieved mean v_y, the mean phase action of
+the policy (with the increment reading, -f dt / phase_scale = -0.12 stops the trotting clock) and the standard
+deviation of the foot-y actions.
+
+``--open-loop``: one robot on the nominal trot (no policy) with a foot-y sawtooth added to every leg: in swing
+the foot moves from -A to +A, in stance back from +A to -A (the stance legs push the body to +y); prints the
+achieved mean v_y (base frame, after 1 s) per amplitude A [m]. Shows whether the action space (foot residuals,
+0.2 m per action unit) can express lateral motion at all.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+
+import numpy as np
+
+COMMANDS = (-0.7, -0.5, -0.3, -0.1, 0.1, 0.3, 0.5, 0.7)
+
+
+def probe_policy(checkpoint: str, seconds: float) -> dict:
+    import torch
+
+    from wqwarp.play import make_policy_runner
+
+    runner = make_policy_runner(checkpoint, None, num_envs=len(COMMANDS))
+    env = runner.env
+    env.push_interval_steps = 0
+    obs = env.reset()
+    cmd = torch.zeros(len(COMMANDS), 3)
+    cmd[:, 1] = torch.tensor(COMMANDS)
+    env.set_commands(cmd)
+    vy, actions = [], []
+    settle = int(round(2.0 / env.dt))
+    with torch.no_grad():
+        for k in range(int(round(seconds / env.dt))):
+            a = runner.policy(obs)
+            obs, _, _, _ = env.step(a)
+            env.set_commands(cmd)  # a reset after a fall resamples; keep the probe's command
+            if k >= settle:
+                vy.append(env.base_state()["lin_vel"][:, 1].clone())
+                actions.append(a.clone())
+    a = torch.stack(actions)
+    return {
+        "checkpoint": checkpoint, "phase_residual_mode": env.cfg.action.phase_residual_mode,
+        "command_vy": list(COMMANDS), "achieved_vy": torch.stack(vy).mean(0).tolist(),
+        "mean_phase_action": a[:, :, :4].mean((0, 2)).tolist(),
+        "foot_y_action_std": a[:, :, [5, 8, 11, 14]].std(0).mean(1).tolist(),
+    }  # fmt: skip
+
+
+def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
+    import warp as wp
+
+    from wqwarp import constants as C
+    from wqwarp.kernels.kinematics import compute_leg_ik
+    from wqwarp.nominal import NominalGait
+    from wqwarp.sim.backend import SimConfig, Simulator
+
+    out = []
+    for amp in amplitudes:
+        sim = Simulator(SimConfig(num_envs=1))
+        ng = NominalGait(1, "cpu")
+        ng.reset([0], ng.gait_ids("trotting"))
+        df = ng.library[ng.gait_ids("trotting")].df_swing
+        vy, p = [], []
+        for k in range(int(round(seconds / sim.policy_dt))):
+            ng.step(sim.actuated_q[:, :12], sim.wheel_contact, sim.policy_dt)
+            target = ng.foot_target.numpy().copy()
+            phi = ng.phase.numpy()[0]
+            swing = phi < df
+            target[0, :, 1] += np.where(swing, -amp + 2 * amp * phi / df, amp - 2 * amp * (phi - df) / (1 - df))
+            q = compute_leg_ik(wp.array(target, dtype=wp.vec3), point=C.FOOT_IN_CALF)
+            wp.copy(sim.leg_q_target, q)
+            sim.wheel_qd_target.zero_()
+            sim.step()
+            if k * sim.policy_dt >= 1.0:
+                x, y, z, w = sim.joint_q.numpy()[0, 3:7]
+                left = np.array([2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w)])  # base y axis
+                vy.append(float(left @ sim.joint_qd.numpy()[0, 0:3]))
+                p.append(float(sim.p_cost.numpy()[0]))
+        out.append({"amplitude_m": amp, "action_units": amp / 0.2, "achieved_vy": float(np.mean(vy)),
+                    "p_cost": float(np.mean(p))})  # fmt: skip
+    return {"open_loop": out}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--checkpoint", default=None, help="probe this policy (model_<it>.pt)")
+    ap.add_argument("--open-loop", action="store_true", help="probe the nominal trot plus a foot-y sawtooth")
+    ap.add_argument(
+        "--amplitudes", default="0,0.03,0.06", help="open loop: sawtooth amplitudes [m] (default 0,0.03,0.06)"
+    )
+    ap.add_argument("--seconds", type=float, default=8.0, help="length of each rollout [s] (default 8)")
+    ap.add_argument("--json", default=None, help="also write the results to this JSON file")
+    args = ap.parse_args(argv)  # fmt: skip
+    if (args.checkpoint is None) == (not args.open_loop) or args.seconds <= 2.0:
+        print("error: give exactly one of --checkpoint and --open-loop, and --seconds > 2", file=sys.stderr)
+        return 2
+    if args.checkpoint is not None and not os.path.isfile(args.checkpoint):
+        print(f"error: no such checkpoint: {args.checkpoint}", file=sys.stderr)
+        return 2
+    if args.json and not os.path.isdir(os.path.dirname(os.path.abspath(args.json))):
+        print(f"error: the directory of --json {args.json} does not exist", file=sys.stderr)
+        return 2
+    try:
+        amps = [float(x) for x in args.amplitudes.split(",")]
+    except ValueError:
+        print(f"error: --amplitudes must be comma-separated numbers, got {args.amplitudes!r}", file=sys.stderr)
+        return 2
+    import warp as wp
+
+    wp.config.quiet = True
+    res = probe_policy(args.checkpoint, args.seconds) if args.checkpoint else probe_open_loop(amps, args.seconds)
+    res["command"] = " ".join(sys.argv)
+    print(json.dumps(res, indent=1))
+    if args.json:
+        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(args.json)), suffix=".json.tmp")
+        with os.fdopen(fd, "w") as f:
+            json.dump(res, f, indent=1)
+        os.replace(tmp, args.json)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
