@@ -12,8 +12,8 @@ Chain of one leg, the same for all legs with ``side`` = +1 for a left leg and -1
 Two points matter: the **wheel centre** ``WHEEL_POINT`` = (-0.015, -0.0245, -0.233) (inboard; where the wheel
 touches the ground, used for Eq. (3)'s lateral distance d) and the **foot point** ``FOOT_POINT`` = (0, 0, -0.213),
 the calf end that the authors' trajectory generator places with its IK (the nominal gait and the policy's foot
-residuals refer to it). ``leg_fk`` / ``leg_ik`` are the wheel-centre versions, ``foot_fk`` / ``foot_ik`` the foot
-point's; ``leg_point_fk`` / ``leg_point_ik`` take any point.
+residuals refer to it). ``leg_fk`` is the wheel centre's FK (Eq. (3)), ``foot_ik`` the foot point's IK (nominal gait
+and residuals); ``leg_point_fk`` / ``leg_point_ik`` take any point (the launchers below and their tests).
 
 References:
     Go1 geometry: ``wqwarp.constants`` (MuJoCo Menagerie ``go1.xml`` and the authors' wheeled-Go1 model).
@@ -37,8 +37,6 @@ WHEEL_POINT = wp.constant(wp.vec3(*[float(x) for x in constants.WHEEL_CENTER_IN_
 """Wheel centre in the calf frame of a left leg [m] (y mirrored on right legs)."""
 FOOT_POINT = wp.constant(wp.vec3(*[float(x) for x in constants.FOOT_IN_CALF]))
 """Foot point (calf end) in the calf frame [m]."""
-LEG_LATERAL_OFFSET = wp.constant(float(constants.THIGH_OFFSET_Y + constants.WHEEL_CENTER_IN_CALF[1]))
-"""|y| of the wheel centre from the hip joint in the hip body frame, 0.08 - 0.0245 = 0.0555 [m]."""
 
 HIP_LOWER = wp.constant(float(constants.HIP_RANGE[0]))
 HIP_UPPER = wp.constant(float(constants.HIP_RANGE[1]))
@@ -120,18 +118,6 @@ def leg_point_ik(p: wp.vec3, side: float, c: wp.vec3) -> wp.vec3:
 def leg_fk(q: wp.vec3, side: float) -> wp.vec3:
     """Wheel centre [m] in the hip frame from (hip, thigh, calf) q [rad]."""
     return leg_point_fk(q, side, WHEEL_POINT)
-
-
-@wp.func
-def leg_ik(p: wp.vec3, side: float) -> wp.vec3:
-    """(hip, thigh, calf) [rad] putting the wheel centre at p [m] (hip frame); see :func:`leg_point_ik`."""
-    return leg_point_ik(p, side, WHEEL_POINT)
-
-
-@wp.func
-def foot_fk(q: wp.vec3, side: float) -> wp.vec3:
-    """Foot point (calf end) [m] in the hip frame from (hip, thigh, calf) q [rad]."""
-    return leg_point_fk(q, side, FOOT_POINT)
 
 
 @wp.func

@@ -106,7 +106,7 @@ class AuthorsRobot:
         return p_legs, p_wheels
 
     def base(self) -> tuple[float, float]:
-        """Trunk height [m] and forward speed in the trunk frame [m/s]."""
+        """Trunk height [m] and forward speed in the trunk frame [m/s] (MuJoCo's free-joint qvel[0:3] is world)."""
         rot = self.d.xmat[1].reshape(3, 3)
         return float(self.d.qpos[2]), float((rot.T @ self.d.qvel[0:3])[0])
 
@@ -115,8 +115,10 @@ class AuthorsRobot:
 
 
 def run(scenario: str, mjcf: str, dt: float, decimation: int, warmup: float, seconds: float) -> dict:
+    import torch
     import warp as wp
 
+    from wqwarp.env import quat_rotate_inv
     from wqwarp.nominal import NominalGait
     from wqwarp.sim.backend import SimConfig, Simulator
 
@@ -142,11 +144,9 @@ def run(scenario: str, mjcf: str, dt: float, decimation: int, warmup: float, sec
         ng.step(wp.array(theirs.leg_q()[None], dtype=wp.float32), contact, ours.policy_dt)
         p_legs, p_wheels = theirs.step(ng.leg_joint_target.numpy()[0], ng.wheel_velocity.numpy()[0], decimation)
         if k >= start:
-            q = ours.joint_q.numpy()[0]
-            x, y, z, w = q[3:7]
-            fwd = np.array([1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w)])
-            rows["ours"].append([q[2], float(fwd @ ours.joint_qd.numpy()[0, 0:3]), ours.p_cost_legs.numpy()[0],
-                                 ours.p_cost_wheels.numpy()[0]])  # fmt: skip
+            q, qd = ours.joint_q.numpy(), ours.joint_qd.numpy()
+            vx = float(quat_rotate_inv(torch.from_numpy(q[:, 3:7]), torch.from_numpy(qd[:, 0:3]))[0, 0])
+            rows["ours"].append([q[0, 2], vx, ours.p_cost_legs.numpy()[0], ours.p_cost_wheels.numpy()[0]])
             rows["theirs"].append([*theirs.base(), p_legs, p_wheels])
     out = {}
     for who, r in rows.items():
@@ -192,8 +192,10 @@ def main(argv=None) -> int:
     if args.json:
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(args.json)), suffix=".json.tmp")
         with os.fdopen(fd, "w") as f:
-            json.dump({"command": " ".join(sys.argv), "dt": args.dt, "decimation": args.decimation,
-                       "results": results}, f, indent=1)  # fmt: skip
+            from wqwarp.provenance import git_state
+
+            json.dump({"command": " ".join(sys.argv), "git": git_state(), "dt": args.dt,
+                       "decimation": args.decimation, "results": results}, f, indent=1)  # fmt: skip
         os.replace(tmp, args.json)
     return 0
 

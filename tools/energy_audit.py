@@ -42,12 +42,12 @@ import dataclasses
 import json
 import os
 import shlex
-import subprocess
 import sys
 import tempfile
 import time
 
 import numpy as np
+import torch
 import warp as wp
 
 wp.config.quiet = True
@@ -104,17 +104,11 @@ def setting_name(dt: float, decimation: int) -> str:
     return f"{dt:g}x{decimation}"
 
 
-def _quat_rotate_inv(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate world vectors v (N, 3) into the frames of unit quaternions q (N, 4) xyzw: R(q)^T v."""
-    xyz, w = q[:, :3], q[:, 3:4]
-    t = 2.0 * np.cross(xyz, v)
-    return v - w * t + np.cross(xyz, t)  # inverse rotation = rotation by the conjugate (-xyz, w)
-
-
 def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: float, num_envs: int) -> dict:
     """Run one scenario at one physics setting and return its window means (see the module docstring)."""
     from wqwarp import constants as C
     from wqwarp import robot
+    from wqwarp.env import quat_rotate_inv
     from wqwarp.nominal import NominalGait
     from wqwarp.sim.backend import SimConfig, Simulator
 
@@ -177,7 +171,7 @@ def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: 
         if not in_window:
             continue
         jq, jqd = sim.joint_q.numpy(), sim.joint_qd.numpy()
-        vx += float(_quat_rotate_inv(jq[:, 3:7], jqd[:, 0:3])[:, 0].mean())
+        vx += float(quat_rotate_inv(torch.from_numpy(jq[:, 3:7]), torch.from_numpy(jqd[:, 0:3]))[:, 0].mean())
         wz += float(jqd[:, 5].mean())  # yaw rate: world-frame angular velocity about z
         height += float(jq[:, 2].mean())
 
@@ -210,15 +204,6 @@ def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: 
 
 def _ratio(a: float, b: float) -> float | None:
     return a / b if b > 0 else None
-
-
-def _git() -> dict:
-    try:
-        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=True)
-        status = subprocess.run(["git", "status", "--porcelain"], cwd=ROOT, capture_output=True, text=True, check=True)
-    except (OSError, subprocess.CalledProcessError):
-        return {"commit": None, "dirty": None}
-    return {"commit": head.stdout.strip(), "dirty": bool(status.stdout.strip())}
 
 
 def audit(scenarios: list[str], settings: list[tuple[float, int]], warmup: float, seconds: float, num_envs: int,
@@ -350,12 +335,13 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    from wqwarp.provenance import git_state
     from wqwarp.sim.backend import SimConfig
 
     sim_config = {k: v for k, v in dataclasses.asdict(SimConfig()).items() if k not in ("num_envs", "dt", "decimation")}
     report = {
         "command": shlex.join(["python", "tools/energy_audit.py", *(sys.argv[1:] if argv is None else argv)]),
-        "git": _git(),
+        "git": git_state(),
         "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         "warmup": args.warmup,
         "seconds": args.seconds,

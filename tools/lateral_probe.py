@@ -61,9 +61,11 @@ def probe_policy(checkpoint: str, seconds: float) -> dict:
 
 
 def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
+    import torch
     import warp as wp
 
     from wqwarp import constants as C
+    from wqwarp.env import quat_rotate_inv
     from wqwarp.kernels.kinematics import compute_leg_ik
     from wqwarp.nominal import NominalGait
     from wqwarp.sim.backend import SimConfig, Simulator
@@ -86,9 +88,10 @@ def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
             sim.wheel_qd_target.zero_()
             sim.step()
             if k * sim.policy_dt >= 1.0:
-                x, y, z, w = sim.joint_q.numpy()[0, 3:7]
-                left = np.array([2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w)])  # base y axis
-                vy.append(float(left @ sim.joint_qd.numpy()[0, 0:3]))
+                v = quat_rotate_inv(
+                    torch.from_numpy(sim.joint_q.numpy()[:, 3:7]), torch.from_numpy(sim.joint_qd.numpy()[:, 0:3])
+                )
+                vy.append(float(v[0, 1]))
                 p.append(float(sim.p_cost.numpy()[0]))
         out.append({"amplitude_m": amp, "action_units": amp / 0.2, "achieved_vy": float(np.mean(vy)),
                     "p_cost": float(np.mean(p))})  # fmt: skip
@@ -123,7 +126,10 @@ def main(argv=None) -> int:
 
     wp.config.quiet = True
     res = probe_policy(args.checkpoint, args.seconds) if args.checkpoint else probe_open_loop(amps, args.seconds)
+    from wqwarp.provenance import git_state
+
     res["command"] = " ".join(sys.argv)
+    res["git"] = git_state()
     print(json.dumps(res, indent=1))
     if args.json:
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(args.json)), suffix=".json.tmp")

@@ -21,20 +21,10 @@ import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 
-def _git_commit() -> str:
-    import subprocess
-
-    try:
-        root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
-        out = subprocess.run(["git", "-C", root, "rev-parse", "HEAD"], capture_output=True, text=True, check=True)
-        return out.stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-
-
 def main(argv=None) -> int:
     from wqwarp.config import PRESETS
     from wqwarp.evaluation import TASKS
+    from wqwarp.provenance import git_state
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
@@ -96,7 +86,7 @@ def main(argv=None) -> int:
                     "preset": runner.preset,
                     "iteration": runner.iteration,
                     "command": " ".join(sys.argv),
-                    "commit": _git_commit(),
+                    "git": git_state(),
                     "results": results,
                 },
                 f,
