@@ -2,15 +2,18 @@
 
 Examples::
 
-    python train/ppo_newton.py                                   # no_predictor preset, CPU defaults (~50 min, 2 cores)
+    python train/ppo_newton.py                                   # ours: predictive gait selection (~70 min, 2 cores)
+    python train/ppo_newton.py --preset no_predictor --max-iterations 1500 --temperature-iterations 1000
     python train/ppo_newton.py --preset pmtg --num-envs 256 --max-iterations 2000
-    python train/ppo_newton.py --resume runs/no_predictor_20261126-0900/model_500.pt
+    python train/ppo_newton.py --resume runs/ours_20261126-0900/model_500.pt
     python train/ppo_newton.py --device cuda:0 --num-envs 4096
     torchrun --nproc_per_node=K train/ppo_newton.py --device cuda:0 --num-envs 4096   # K GPUs, rsl-rl's DDP path
 
-Writes to the log directory: TensorBoard events, ``model_<it>.pt`` checkpoints (policy, critic, optimizer,
-estimator, observation layout), ``config.json``, and at the end ``export/policy.pt`` (TorchScript), ``export/
-policy.onnx`` and ``export/policy.json`` (the onboard policy: observation history -> estimator -> actor).
+Writes to the log directory: TensorBoard events (rsl-rl's plus ``Gait/*`` usage shares per command type and
+temperature, ``Predictor/*`` loss and held-out relative error per gait), ``model_<it>.pt`` checkpoints (policy,
+critic, optimizer, estimator, power predictor and temperature position, observation layout, env config),
+``config.json``, and at the end ``export/policy.pt`` (TorchScript), ``export/policy.onnx`` and ``export/policy.json``
+(the onboard policy: observation history -> estimator -> o_t -> actor, and the power predictor with its argmin rule).
 An interrupted run (Ctrl-C or an error) saves ``model_<it>_interrupted.pt`` before exiting.
 """
 
@@ -39,11 +42,11 @@ def parse_args(argv=None) -> argparse.Namespace:
     )
     p.add_argument(
         "--preset",
-        default="no_predictor",
+        default="ours",
         choices=sorted(PRESETS),
-        help="method of the paper to train (default: no_predictor = fixed augmented trotting gait with "
-        "nominal wheel velocities; baseline = no nominal gait; pmtg = trotting without nominal wheel "
-        "velocities)",
+        help="method of the paper to train (default: ours = predictive gait selection with nominal wheel "
+        "velocities; no_wheel_vel = predictive selection without them; no_predictor = fixed augmented trotting "
+        "gait; pmtg = trotting without nominal wheel velocities; baseline = no nominal gait)",
     )
     p.add_argument("--num-envs", type=int, default=128, help="parallel robots (default 128; 4096 on a GPU)")
     p.add_argument(
@@ -98,6 +101,34 @@ def parse_args(argv=None) -> argparse.Namespace:
         "authors' generator PMTG.py; the default) or increment (accumulated every policy step: the policy can stop "
         "the gait clock, see the README)",
     )
+    p.add_argument(
+        "--temperature",
+        type=float,
+        nargs=2,
+        default=None,
+        metavar=("START", "END"),
+        help="predictive presets: softmax temperature tau [W] at iteration 0 and at the end of the annealing "
+        "(default 100 1)",
+    )
+    p.add_argument(
+        "--temperature-iterations",
+        type=int,
+        default=None,
+        help="predictive presets: iterations over which tau is annealed, constant afterwards (default 2000)",
+    )
+    p.add_argument(
+        "--temperature-shape",
+        choices=("exponential", "linear", "cosine"),
+        default=None,
+        help="predictive presets: interpolation of tau between its ends (default exponential)",
+    )
+    p.add_argument(
+        "--decision-interval",
+        type=float,
+        default=None,
+        help="predictive presets: seconds a selected gait is held before the next selection (default 1.0, the "
+        "prediction horizon)",
+    )
     p.add_argument("--no-export", action="store_true", help="skip the TorchScript / ONNX export at the end")
     return p.parse_args(argv)
 
@@ -147,6 +178,7 @@ class Progress:
         eta = elapsed / max(done, 1) * (self.total - it - 1)
         r = self.runner.logger.rewbuffer
         mean = lambda k: sum(ep[k]) / len(ep[k]) if ep.get(k) else float("nan")  # noqa: E731
+        gait = self.runner.last_gait_scalars
         sps = self.runner.env.num_envs * self.runner.cfg["num_steps_per_env"] / max(collect + learn, 1e-9)
         self.metrics = {
             "iteration": it + 1, "mean_reward": statistics.mean(r) if len(r) else float("nan"),
@@ -160,6 +192,13 @@ class Progress:
                   f"reward {m['mean_reward']:7.2f} | err vx {m['vx_error']:.2f} vy {m['vy_error']:.2f} "
                   f"wz {m['wz_error']:.2f} | power {m['p_cost']:6.1f} W (legs {m['p_cost_legs']:5.1f}, wheels "
                   f"{m['p_cost_wheels']:5.1f}) | {sps:6.0f} steps/s")  # fmt: skip
+        names = [k[len("Gait/usage_"):] for k in gait if k.startswith("Gait/usage_") and k.count("_") == 1]
+        if len(names) > 1 or "Gait/temperature" in gait:
+            shares = " ".join(f"{n[:5]} {100 * gait['Gait/usage_' + n]:3.0f}%" for n in names)
+            status += f" | gaits {shares}"
+            if "Gait/temperature" in gait:
+                status += f" tau {gait['Gait/temperature']:.2g}"
+        self.metrics.update({k: v for k, v in gait.items()})
         print("\r" + status, end="", flush=True)
         if (it + 1) % 10 == 0 or it + 1 == self.total:
             print(flush=True)
@@ -204,11 +243,26 @@ def main(argv=None) -> int:
     cfg.estimator.use_true_state = args.true_state
     if args.phase_residual is not None:
         cfg.action.phase_residual_mode = args.phase_residual
+    p = cfg.predictor
+    if args.temperature is not None:
+        p.temperature_start, p.temperature_end = args.temperature
+    if args.temperature_iterations is not None:
+        p.temperature_iterations = args.temperature_iterations
+    if args.temperature_shape is not None:
+        p.temperature_shape = args.temperature_shape
+    if args.decision_interval is not None:
+        if args.decision_interval <= 0:
+            fail(f"--decision-interval must be > 0 s, got {args.decision_interval}")
+        p.decision_interval_s = args.decision_interval
+    if args.temperature is not None and min(args.temperature) <= 0:
+        fail(f"--temperature values must be > 0 W, got {args.temperature}")
+    if args.temperature_iterations is not None and args.temperature_iterations < 0:
+        fail(f"--temperature-iterations must be >= 0, got {args.temperature_iterations}")
     tcfg = TrainConfig(max_iterations=args.max_iterations, save_interval=args.save_interval,
                        num_steps_per_env=args.num_steps_per_env)  # fmt: skip
     print(f"wqwarp: preset {args.preset}, {args.num_envs} robots on {device}, log dir {log_dir}", flush=True)
     t_setup = time.time()
-    env = WheeledGo1Env(cfg, estimator_interval=tcfg.num_steps_per_env)
+    env = WheeledGo1Env(cfg)
     print(f"environment ready in {time.time() - t_setup:.1f} s ({env.num_obs} actor observations, "
           f"{env.num_actions} actions)", flush=True)  # fmt: skip
     os.makedirs(log_dir, exist_ok=True)

@@ -7,8 +7,8 @@ The paper's five methods (Sec. IV):
     baseline      no nominal gait; actions are joint position offsets and wheel velocities; no residual penalty
     pmtg          fixed trotting gait, wheel velocities from the policy only (no nominal wheel velocities)
     no_predictor  fixed augmented trotting gait with nominal wheel velocities ("Ours w/o predictive module")
-    no_wheel_vel  predictive gait selection, no nominal wheel velocities (added with the gait-selection issue)
-    ours          predictive gait selection with nominal wheel velocities (added with the gait-selection issue)
+    no_wheel_vel  predictive gait selection, no nominal wheel velocities
+    ours          predictive gait selection with nominal wheel velocities (the default of ``train/ppo_newton.py``)
 """
 
 from __future__ import annotations
@@ -95,15 +95,51 @@ class GaitConfig:
 
     selection: str = "fixed"
     """``fixed``: always ``fixed_gait``; ``none``: no nominal gait (baseline); ``predictive``: the power predictor
-    picks the gait (the gait-selection issue)."""
+    picks each robot's gait by softmax sampling (``wqwarp.gait_selection``)."""
     fixed_gait: str = "trotting"
-    """Gait from the paper's Table I used when ``selection == 'fixed'``."""
+    """Gait from the paper's Table I used when ``selection == 'fixed'`` (and at start-up with ``predictive``)."""
     body_height: float = 0.2
     """h_b: foot point (calf end) below the hip in stance [m] (authors' generator: body_height 0.2 m)."""
     swing_height: float = 0.1
     """h_s [m] (authors' generator: max_clearance 0.1 m)."""
     swing_x_amplitude: float = 0.05
     """Horizontal swing amplitude of the foot point [m] (authors' generator: max_horizontal_offset 0.05 m)."""
+
+
+@dataclass
+class PredictorConfig:
+    """Predictive gait selection (paper, "Predictive Energy-Aware Nominal Gait Selection"): an MLP predicts each
+    gait's mean p_cost over the next ``horizon_s`` from o_t; gaits are sampled with probabilities softmax(-p/tau).
+    The paper gives no values for the temperature, the network or its training; ours are stated here."""
+
+    horizon_s: float = 1.0
+    """Prediction horizon [s] (paper: 1 s, "roughly a single gait cycle"); 50 policy steps at 50 Hz."""
+    decision_interval_s: float = 1.0
+    """Time a robot runs its selected gait before the next selection [s], counted from when the gait took effect
+    (a switch waits for the library's continuity rule). Equal to the horizon, so each selection yields one window."""
+    temperature_start: float = 100.0
+    """tau at iteration 0 [W]. Early in training p_cost is dominated by exploration noise (about 1200 W at
+    iteration 1, 150 W at iteration 500 of the fixed-trot run, docs/train_no_predictor_offset_1000.log), so tau
+    starts at the scale of the gaps between gaits then."""
+    temperature_end: float = 1.0
+    """tau at the end of the annealing [W]: a trained trot costs 15-30 W (docs/eval_no_predictor_offset_2999.json);
+    a 3 W gap then gives a 20:1 preference."""
+    temperature_iterations: int = 2000
+    """PPO iterations over which tau goes from start to end; constant afterwards."""
+    temperature_shape: str = "exponential"
+    """``exponential`` (geometric), ``linear`` or ``cosine`` interpolation between the ends."""
+    evaluation_selection: str = "argmin"
+    """Selection outside training (evaluation, playback, export): ``argmin`` (tau -> 0) or ``sample`` (tau at the
+    checkpoint's schedule position)."""
+    hidden_dims: tuple[int, ...] = (128, 64)
+    learning_rate: float = 1e-3
+    batch_size: int = 256
+    updates_per_iteration: int = 8
+    """Gradient steps on the replay buffer after each PPO update."""
+    buffer_size: int = 20000
+    """Replay buffer of the most recent labelled windows."""
+    holdout_fraction: float = 0.1
+    """Share of windows kept out of training to measure the relative error per gait."""
 
 
 @dataclass
@@ -205,6 +241,7 @@ class EnvConfig:
     action: ActionConfig = field(default_factory=ActionConfig)
     obs: ObservationConfig = field(default_factory=ObservationConfig)
     estimator: EstimatorConfig = field(default_factory=EstimatorConfig)
+    predictor: PredictorConfig = field(default_factory=PredictorConfig)
     domain_rand: DomainRandConfig = field(default_factory=DomainRandConfig)
     seed: int = 1
 
@@ -272,7 +309,21 @@ def _no_predictor() -> EnvConfig:
     return cfg
 
 
-PRESETS = {"baseline": _baseline, "pmtg": _pmtg, "no_predictor": _no_predictor}
+def _no_wheel_vel() -> EnvConfig:
+    cfg = EnvConfig()
+    cfg.gait = GaitConfig(selection="predictive")
+    cfg.action = ActionConfig(use_nominal_wheels=False)
+    return cfg
+
+
+def _ours() -> EnvConfig:
+    cfg = EnvConfig()
+    cfg.gait = GaitConfig(selection="predictive")
+    return cfg
+
+
+PRESETS = {"baseline": _baseline, "pmtg": _pmtg, "no_predictor": _no_predictor, "no_wheel_vel": _no_wheel_vel,
+           "ours": _ours}
 """Preset name -> factory of a fresh :class:`EnvConfig`."""
 
 

@@ -33,7 +33,8 @@ from tensordict import TensorDict
 from wqwarp import constants as C
 from wqwarp.config import REWARD_TERMS, EnvConfig
 from wqwarp.estimator import EstimatorTrainer, StateEstimator
-from wqwarp.gaits import GAIT_LIBRARY, gait_index
+from wqwarp.gait_selection import make_gait_selector
+from wqwarp.gaits import GAIT_LIBRARY, GAIT_NAMES, gait_index
 from wqwarp.kernels.actions import joint_offset_targets, residual_targets
 from wqwarp.kernels.rewards import compute_rewards
 from wqwarp.nominal import NominalGait
@@ -71,7 +72,7 @@ def quat_rotate_inv(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
 class WheeledGo1Env(VecEnv):
     """rsl-rl vectorized environment of the paper's residual-RL wheeled Go1 (see the module docstring)."""
 
-    def __init__(self, cfg: EnvConfig, estimator_interval: int = 24):
+    def __init__(self, cfg: EnvConfig):
         self.cfg = cfg
         self.sim = Simulator(cfg.sim)
         sim = self.sim
@@ -90,18 +91,17 @@ class WheeledGo1Env(VecEnv):
         self.residual_mode = a.use_nominal_legs
         if cfg.gait.selection == "none" and a.use_nominal_legs:
             raise ValueError("action.use_nominal_legs needs a nominal gait (gait.selection != 'none')")
-        if cfg.gait.selection not in ("none", "fixed"):
-            raise ValueError(f"gait.selection {cfg.gait.selection!r} is not available yet (use 'fixed' or 'none')")
+        if cfg.gait.selection not in ("none", "fixed", "predictive"):
+            raise ValueError(f"unknown gait.selection {cfg.gait.selection!r}; choose none, fixed or predictive")
         self.num_actions = 20 if self.residual_mode else 16
         self.nominal = None
-        self.gait_id = torch.zeros(n, dtype=torch.long, device=dev)
+        start_gait = gait_index(cfg.gait.fixed_gait)
         if cfg.gait.selection != "none":
             self.nominal = NominalGait(n, sim.device, body_height=cfg.gait.body_height,
                                        swing_height=cfg.gait.swing_height,
                                        swing_x_amplitude=cfg.gait.swing_x_amplitude,
                                        phase_mode=cfg.action.phase_residual_mode)  # fmt: skip
-            self.gait_id[:] = gait_index(cfg.gait.fixed_gait)
-            wp.to_torch(self.nominal.gait_id)[:] = self.gait_id.to(torch.int32)
+            wp.to_torch(self.nominal.gait_id)[:] = start_gait
             self.nominal.reset(np.arange(n))
 
         # Zero-copy torch views of the simulator.
@@ -151,17 +151,19 @@ class WheeledGo1Env(VecEnv):
         self.history = torch.zeros(n, H, self.proprio_dim, device=dev)
         self.estimator = StateEstimator(H * self.proprio_dim, tuple(cfg.estimator.hidden_dims)).to(dev)
         self.estimator_trainer = EstimatorTrainer(self.estimator, cfg.estimator.learning_rate, cfg.estimator.epochs,
-                                                  cfg.estimator.batch_size, estimator_interval)  # fmt: skip
+                                                  cfg.estimator.batch_size)  # fmt: skip
         self.estimate = torch.zeros(n, 3, device=dev)
         o = cfg.obs
         self._down = torch.tensor([[0.0, 0.0, -1.0]], device=dev)
         self._command_scale = torch.tensor([o.lin_vel_scale, o.lin_vel_scale, o.ang_vel_scale], device=dev)
         self._estimate_scale = torch.tensor([o.lin_vel_scale, o.lin_vel_scale, 1.0], device=dev)
-        self.learn_estimator = True
-        """Fit the estimator on the collected (history, true state) pairs; evaluation and playback set it False."""
+        # Gait selection: the selector writes the requested gait into nominal.gait_id (its only home).
+        requested = wp.to_torch(self.nominal.gait_id) if self.nominal is not None else None
+        self.gait_selector = make_gait_selector(cfg, requested, GAIT_NAMES, start_gait, self.dt, self.num_obs)
+        self._collect = False
         self.extras: dict = {}
         self._reset_envs(torch.arange(n, device=dev))
-        self._obs = self._compute_observations()
+        self._obs = self._observe()
 
     # --- helpers --------------------------------------------------------------------------------------------------
     def _uniform(self, rng: tuple[float, float], shape) -> torch.Tensor:
@@ -184,6 +186,38 @@ class WheeledGo1Env(VecEnv):
     def get_observations(self) -> TensorDict:
         return self._obs
 
+    @property
+    def collect_training_data(self) -> bool:
+        """True while a training runner collects rollouts: the env stores (history, true state) pairs for the
+        estimator and labelled power windows for the predictor, and the predictive selector samples at the
+        schedule's temperature. False (the default: evaluation, playback, export) stores nothing, so nothing can
+        learn, and the selector uses ``predictor.evaluation_selection``. The learning itself happens in the runner
+        (``wqwarp.runner.WqRunner``), never in :meth:`step`."""
+        return self._collect
+
+    @collect_training_data.setter
+    def collect_training_data(self, value: bool) -> None:
+        turned_on = bool(value) and not self._collect
+        self._collect = bool(value)
+        if hasattr(self.gait_selector, "training"):
+            self.gait_selector.training = self._collect
+            if turned_on:
+                self.gait_selector.due[:] = True  # selections made outside training are redone at the next step
+        if not self._collect:
+            self.estimator_trainer.clear()
+
+    def active_gait(self) -> torch.Tensor:
+        """Gait in effect per robot (N,) long (zeros without a nominal gait)."""
+        if self.nominal is None:
+            return torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
+        return wp.to_torch(self.nominal.active_gait_id).long()
+
+    def requested_gait(self) -> torch.Tensor:
+        """Gait requested per robot (N,) long: a view of ``nominal.gait_id`` (zeros without a nominal gait)."""
+        if self.nominal is None:
+            return torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
+        return wp.to_torch(self.nominal.gait_id).long()
+
     def step(self, actions: torch.Tensor):
         cfg, sim = self.cfg, self.sim
         a = torch.clamp(actions.to(self.device), -cfg.action.clip_actions, cfg.action.clip_actions)
@@ -197,6 +231,7 @@ class WheeledGo1Env(VecEnv):
         died = self.tv["body_collision"][:, 0] > 0
         time_out = self.episode_length_buf >= self.max_episode_length
         dones = died | time_out
+        self.gait_selector.record_step(self.tv["p_cost"], self.active_gait(), self.commands, dones, died)
         self.prev2_actions[:] = self.prev_actions
         self.prev_actions[:] = self.actions
         # Metrics see the state before resets; the observations below re-read it after resets and pushes.
@@ -210,13 +245,19 @@ class WheeledGo1Env(VecEnv):
             self._resample_commands(resample)
         if self.push_interval_steps and self.common_step_counter % self.push_interval_steps == 0:
             self._push_robots()
-        self._obs = self._compute_observations(train_estimator=self.learn_estimator)
+        self._obs = self._observe()
         return self._obs, rewards.clone(), dones.to(torch.long), self.extras
 
     def reset(self) -> TensorDict:
         self._reset_envs(torch.arange(self.num_envs, device=self.device))
-        self._obs = self._compute_observations()
+        self._obs = self._observe()
         return self._obs
+
+    def _observe(self) -> TensorDict:
+        """o_t and the critic's observation, then the gait selection that reads o_t."""
+        obs = self._compute_observations()
+        self.gait_selector.select(obs["policy"], self.active_gait())
+        return obs
 
     # --- actions -------------------------------------------------------------------------------------------------
     def _apply_actions(self) -> None:
@@ -260,7 +301,6 @@ class WheeledGo1Env(VecEnv):
             "Metrics/p_mech_wheels": self.tv["p_mech_wheels"].mean(),
             "Metrics/p_joule_legs": self.tv["p_joule_legs"].mean(),
             "Metrics/p_joule_wheels": self.tv["p_joule_wheels"].mean(),
-            "Metrics/estimator_loss": torch.tensor(self.estimator_trainer.last_loss),
         }
 
     def _episode_log(self, ids: torch.Tensor) -> dict:
@@ -286,6 +326,7 @@ class WheeledGo1Env(VecEnv):
         self.sim.reset(ids_np, q, np.zeros((len(ids_np), lay.dofs_per_world), np.float32))
         if self.nominal is not None:
             self.nominal.reset(ids_np)
+        self.gait_selector.on_reset(ids)
         self.actions[ids] = 0.0
         self.prev_actions[ids] = 0.0
         self.prev2_actions[ids] = 0.0
@@ -356,7 +397,7 @@ class WheeledGo1Env(VecEnv):
             return torch.zeros(shape, device=self.device)
         return (2.0 * torch.rand(shape, generator=self.gen, device=self.device) - 1.0) * scale
 
-    def _compute_observations(self, train_estimator: bool = False) -> TensorDict:
+    def _compute_observations(self) -> TensorDict:
         o, n = self.cfg.obs, self.num_envs
         b = self.base_state()
         q = self.tv["actuated_q"]
@@ -372,7 +413,7 @@ class WheeledGo1Env(VecEnv):
         self.history[:, -1] = proprio
         true_z = torch.stack([b["lin_vel"][:, 0], b["lin_vel"][:, 1], b["height"]], 1)
         hist = self.history.reshape(n, -1)
-        if train_estimator:
+        if self._collect:
             self.estimator_trainer.add(hist, true_z)
         if self.cfg.estimator.use_true_state:
             z = true_z
@@ -383,7 +424,7 @@ class WheeledGo1Env(VecEnv):
         zs = z * self._estimate_scale
         split = 3 + 3 + 12 + 16 + 18
         actor = torch.cat([proprio[:, :split], zs, proprio[:, split:]], 1)
-        gid = torch.nn.functional.one_hot(self.gait_id, len(GAIT_LIBRARY)).float()
+        gid = torch.nn.functional.one_hot(self.active_gait(), len(GAIT_LIBRARY)).float()
         if self.nominal is None:
             gid = torch.zeros_like(gid)
         priv = torch.cat([

@@ -2,7 +2,8 @@
 
 Paper, "Estimator Module": an MLP trained by supervised learning in simulation estimates the planar base velocity
 and the base height from the observation history O_t^H (H = 6). Here it is regressed on the rollouts the PPO runner
-collects: the environment stores (history, true state) pairs every step and fits the MLP once per iteration.
+collects: the environment stores (history, true state) pairs every step while a training runner collects, and the
+runner fits the MLP after each PPO update (``wqwarp.runner.WqRunner``), never the environment itself.
 """
 
 from __future__ import annotations
@@ -30,15 +31,13 @@ class StateEstimator(nn.Module):
 
 
 class EstimatorTrainer:
-    """Collects (history, target) pairs and fits the estimator by MSE every ``interval`` environment steps."""
+    """Collects (history, target) pairs; :meth:`fit` (called by the runner) fits the estimator on them by MSE."""
 
-    def __init__(self, estimator: StateEstimator, lr: float, epochs: int, batch_size: int, interval: int):
+    def __init__(self, estimator: StateEstimator, lr: float, epochs: int, batch_size: int):
         self.estimator = estimator
         self.optimizer = torch.optim.Adam(estimator.parameters(), lr=lr)
         self.epochs = epochs
         self.batch_size = batch_size
-        self.interval = interval
-        """Steps between fits: the runner's ``num_steps_per_env``, i.e. once per PPO iteration."""
         self._inputs: list[torch.Tensor] = []
         self._targets: list[torch.Tensor] = []
         self.last_loss = float("nan")
@@ -47,8 +46,11 @@ class EstimatorTrainer:
     def add(self, history: torch.Tensor, target: torch.Tensor) -> None:
         self._inputs.append(history.detach().clone())
         self._targets.append(target.detach().clone())
-        if len(self._inputs) >= self.interval:
-            self.fit()
+
+    def clear(self) -> None:
+        """Forget the pairs collected since the last fit."""
+        self._inputs.clear()
+        self._targets.clear()
 
     def fit(self) -> float:
         if not self._inputs:

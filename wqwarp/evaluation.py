@@ -55,7 +55,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     if task not in TASKS:
         raise ValueError(f"unknown task {task!r}; choose from {', '.join(TASKS)}")
     env = runner.env
-    env.learn_estimator = False  # nothing learns during evaluation
+    env.collect_training_data = False  # nothing learns during evaluation
     n = env.num_envs
     env.cfg.commands.resampling_time = 1e9
     env.max_episode_length = int(np.ceil((seconds + 1.0) / env.dt))

@@ -69,7 +69,7 @@ def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, devic
         # until the whole configuration round-trips from checkpoints, at least the gait reading must match
         cfg.action.phase_residual_mode = checkpoint_phase_residual_mode(checkpoint)
     env = WheeledGo1Env(cfg)
-    env.learn_estimator = False  # playback, evaluation and export use the checkpoint's estimator as it is
+    env.collect_training_data = False  # playback, evaluation and export: estimator and predictor as saved
     with contextlib.redirect_stdout(io.StringIO()):
         runner = WqRunner(env, TrainConfig().rsl_rl_dict(), log_dir=None, device=env.device)
     runner.load(checkpoint)

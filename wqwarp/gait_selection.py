@@ -1,0 +1,456 @@
+"""Gait selection: which nominal gait each robot requests (paper, "Predictive Energy-Aware Nominal Gait Selection").
+
+One interface, three selectors (:func:`make_gait_selector` picks one from ``GaitConfig.selection``):
+    none        no nominal gait (the baseline); nothing to select
+    fixed       every robot requests ``GaitConfig.fixed_gait``
+    predictive  a power prediction network estimates, from the actor observation o_t, each gait's mean p_cost over
+                the next ``horizon_s`` (1 s); robots sample their gait with probabilities softmax(-p_est / tau),
+                tau annealed over the PPO iterations (:class:`TemperatureSchedule`)
+
+The environment owns a selector and calls it at fixed points of ``step`` (:meth:`GaitSelector.record_step` after the
+physics, :meth:`GaitSelector.on_reset` for robots reset, :meth:`GaitSelector.select` once o_t is known). The
+requested gait has one home: ``NominalGait.gait_id`` (Warp), which the selector writes through a zero-copy torch
+view. The gait that actually runs is ``NominalGait.active_gait_id``: a request takes effect when the library's
+continuity rule allows (no leg of the active gait in swing; ``wqwarp.kernels.gait``).
+
+Timing (predictive). A robot's gait is held for ``decision_interval_s`` counted from the first full policy step
+run in it, then selected again (it may keep the same gait). A labelled window starts at an observation o_t where
+the requested gait is in effect and no window is open; it is labelled with the realised mean p_cost of the next
+``horizon`` policy steps, for the gait that ran. A window cut by a reset or by a gait switch is dropped, never
+labelled. With decision interval = horizon, every selection that is not cut yields one window.
+
+Learning happens in the runner, not in ``VecEnv.step``: the env only stores labelled windows while its
+``collect_training_data`` flag is set (``wqwarp.runner.WqRunner.learn`` sets it), and the runner calls
+:meth:`GaitSelector.fit` after each PPO update.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+from torch import nn
+
+COMMAND_TYPES: tuple[str, ...] = ("forward", "lateral", "yaw", "mixed", "zero")
+"""Command types of the usage logs: only v_x, only v_y, only w_z non-zero; several; none."""
+
+COMMAND_ZERO: float = 0.05
+"""|command| below which an axis counts as zero for the usage logs [m/s or rad/s]."""
+
+SHAPES: tuple[str, ...] = ("exponential", "linear", "cosine")
+
+
+def command_type(commands: torch.Tensor) -> torch.Tensor:
+    """Index into :data:`COMMAND_TYPES` of each command (N, 3) (v_x, v_y, w_z)."""
+    nz = commands.abs() > COMMAND_ZERO
+    count = nz.sum(dim=1)
+    single = torch.argmax(nz.to(torch.int8), dim=1)  # the one non-zero axis when count == 1
+    out = torch.where(count == 1, single, torch.full_like(count, 3))
+    return torch.where(count == 0, torch.full_like(count, 4), out)
+
+
+# --- temperature -----------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TemperatureSchedule:
+    """tau(iteration): from ``start`` at iteration 0 to ``end`` at ``iterations``, constant afterwards [W]."""
+
+    start: float
+    end: float
+    iterations: int
+    shape: str = "exponential"
+
+    def __post_init__(self) -> None:
+        if not (self.start > 0.0 and self.end > 0.0):
+            raise ValueError(f"temperatures must be > 0, got start {self.start} and end {self.end}")
+        if self.iterations < 0:
+            raise ValueError(f"temperature iterations must be >= 0, got {self.iterations}")
+        if self.shape not in SHAPES:
+            raise ValueError(f"unknown temperature shape {self.shape!r}; choose one of {', '.join(SHAPES)}")
+
+    def __call__(self, iteration: int) -> float:
+        s = 1.0 if self.iterations == 0 else min(max(iteration / self.iterations, 0.0), 1.0)
+        if self.shape == "exponential":
+            return self.start * (self.end / self.start) ** s
+        if self.shape == "cosine":
+            s = 0.5 * (1.0 - math.cos(math.pi * s))
+        return self.start + (self.end - self.start) * s
+
+
+def gait_probabilities(power: torch.Tensor, temperature: float) -> torch.Tensor:
+    """softmax(-power / tau) over the last axis (paper's selection probabilities); tau <= 0 gives the argmin."""
+    if temperature <= 0.0:
+        return torch.nn.functional.one_hot(torch.argmin(power, dim=-1), power.shape[-1]).to(power.dtype)
+    return torch.softmax(-power / temperature, dim=-1)
+
+
+# --- power prediction network ----------------------------------------------------------------------------------------
+class PowerPredictor(nn.Module):
+    """MLP from the actor observation o_t (B, D) to each gait's predicted mean p_cost over the horizon (B, G) [W].
+
+    Inputs and targets are normalised inside the module (buffers ``obs_mean``, ``obs_std``, ``target_mean``,
+    ``target_std``, set from the replay buffer at each fit), so the exported module takes raw o_t and returns watts.
+    """
+
+    def __init__(self, obs_dim: int, num_gaits: int, hidden_dims: tuple[int, ...] = (128, 64)):
+        super().__init__()
+        layers: list[nn.Module] = []
+        d = obs_dim
+        for h in hidden_dims:
+            layers += [nn.Linear(d, h), nn.ELU()]
+            d = h
+        layers.append(nn.Linear(d, num_gaits))
+        self.net = nn.Sequential(*layers)
+        self.register_buffer("obs_mean", torch.zeros(obs_dim))
+        self.register_buffer("obs_std", torch.ones(obs_dim))
+        self.register_buffer("target_mean", torch.zeros(num_gaits))
+        self.register_buffer("target_std", torch.ones(num_gaits))
+
+    def normalized(self, obs: torch.Tensor) -> torch.Tensor:
+        """Network output in normalised target units (B, G)."""
+        return self.net((obs - self.obs_mean) / self.obs_std)
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.normalized(obs) * self.target_std + self.target_mean
+
+
+class WindowLabeler:
+    """Per-robot windows of ``horizon`` policy steps -> labelled samples (o_t at the window start, gait, mean p_cost).
+
+    :meth:`start` opens a window at o_t for robots whose requested gait is in effect and that have none open;
+    :meth:`step` adds one policy step's p_cost and returns the windows that completed. A reset or a change of the
+    running gait inside a window drops it.
+    """
+
+    def __init__(self, num_envs: int, obs_dim: int, horizon: int, device: str = "cpu"):
+        if horizon < 1:
+            raise ValueError(f"window horizon must be >= 1 policy step, got {horizon}")
+        self.horizon = horizon
+        self.open = torch.zeros(num_envs, dtype=torch.bool, device=device)
+        self.gait = torch.zeros(num_envs, dtype=torch.long, device=device)
+        self.obs = torch.zeros(num_envs, obs_dim, device=device)
+        self.sum = torch.zeros(num_envs, device=device)
+        self.length = torch.zeros(num_envs, dtype=torch.long, device=device)
+        self.dropped = 0
+        """Windows dropped since construction (reset or gait switch inside)."""
+
+    def start(self, obs: torch.Tensor, active: torch.Tensor, requested: torch.Tensor) -> None:
+        new = ~self.open & (active == requested)
+        self.obs[new] = obs[new]
+        self.gait[new] = active[new]
+        self.sum[new] = 0.0
+        self.length[new] = 0
+        self.open |= new
+
+    def step(self, p_cost: torch.Tensor, active: torch.Tensor, reset: torch.Tensor):
+        """Account one policy step that ran gait ``active`` and cost ``p_cost`` [W]; ``reset`` marks robots reset
+        after it. Returns (obs (K, D), gait (K,), mean p_cost (K,)) of the windows completed by this step."""
+        cut = self.open & ((active != self.gait) | reset)
+        self.dropped += int(cut.sum())
+        self.open &= ~cut
+        self.sum += torch.where(self.open, p_cost, torch.zeros_like(p_cost))
+        self.length += self.open.long()
+        done = self.open & (self.length >= self.horizon)
+        self.open &= ~done
+        return self.obs[done].clone(), self.gait[done].clone(), self.sum[done] / self.horizon
+
+
+# --- selectors -------------------------------------------------------------------------------------------------------
+class GaitSelector:
+    """Interface of the gait selectors; the base class is the ``none`` selector (no nominal gait)."""
+
+    name = "none"
+    num_gaits = 0
+
+    def record_step(self, p_cost, active, commands, reset, died) -> None:
+        """After the physics of a policy step (before resets): p_cost (N,) [W], running gait (N,), commands (N, 3),
+        reset (N,) bool (died or timed out), died (N,) bool."""
+
+    def on_reset(self, ids: torch.Tensor) -> None:
+        """Robots ``ids`` were reset (their gait restarts in the requested gait)."""
+
+    def select(self, obs: torch.Tensor, active: torch.Tensor) -> None:
+        """Once o_t (N, D) is known: choose the gait of the robots that are due."""
+
+    def fit(self) -> dict[str, float]:
+        """Learn from the data recorded since the last call (runner, after each PPO update); returns losses."""
+        return {}
+
+    def set_iteration(self, iteration: int) -> None:
+        """The PPO iteration the coming rollout belongs to (moves the temperature schedule)."""
+
+    def log_scalars(self) -> dict[str, float]:
+        """TensorBoard scalars of the iteration, then the counters restart."""
+        return {}
+
+    def state_dict(self) -> dict:
+        return {"name": self.name}
+
+    def load_state_dict(self, state: dict) -> None:
+        if state.get("name", self.name) != self.name:
+            raise ValueError(f"checkpoint holds a {state.get('name')!r} gait selector, this preset uses {self.name!r}")
+
+
+class FixedGaitSelector(GaitSelector):
+    """Every robot requests one gait; logs the usage of the running gaits like the predictive selector."""
+
+    name = "fixed"
+
+    def __init__(self, requested: torch.Tensor, gait_names: tuple[str, ...], gait: int, policy_dt: float):
+        self.requested = requested
+        """Torch view of ``NominalGait.gait_id`` (int32): the one home of the requested gait."""
+        self.gait_names = gait_names
+        self.num_gaits = len(gait_names)
+        self.dt = policy_dt
+        self.requested[:] = gait
+        dev = requested.device
+        self.usage = torch.zeros(self.num_gaits, len(COMMAND_TYPES), device=dev)
+        self.switches = 0
+        self.falls_after_switch = 0
+        self.falls = 0
+        self.since_switch = torch.full((len(requested),), 10**9, dtype=torch.long, device=dev)
+        self.last_active: torch.Tensor | None = None
+
+    def record_step(self, p_cost, active, commands, reset, died) -> None:
+        active = active.long()
+        ctype = command_type(commands)
+        self.usage.index_put_((active, ctype), torch.ones_like(p_cost), accumulate=True)
+        if self.last_active is not None:
+            switched = active != self.last_active
+            self.switches += int(switched.sum())
+            self.since_switch = torch.where(switched, torch.zeros_like(self.since_switch), self.since_switch + 1)
+        horizon = int(round(1.0 / self.dt))
+        self.falls += int(died.sum())
+        self.falls_after_switch += int((died & (self.since_switch < horizon)).sum())
+        self.last_active = active.clone()
+
+    def on_reset(self, ids: torch.Tensor) -> None:
+        self.since_switch[ids] = 10**9
+        if self.last_active is not None:
+            self.last_active[ids] = self.requested[ids].long()
+
+    def log_scalars(self) -> dict[str, float]:
+        total = float(self.usage.sum())
+        if total == 0.0:
+            return {}
+        out = {}
+        robot_seconds = total * self.dt
+        out["Gait/switches_per_robot_minute"] = 60.0 * self.switches / robot_seconds
+        out["Gait/falls_within_1s_of_switch"] = float(self.falls_after_switch)
+        out["Gait/falls"] = float(self.falls)
+        for g, name in enumerate(self.gait_names):
+            out[f"Gait/usage_{name}"] = float(self.usage[g].sum()) / total
+            for c, ctype in enumerate(COMMAND_TYPES):
+                col = float(self.usage[:, c].sum())
+                if col > 0.0:
+                    out[f"Gait/usage_{name}_{ctype}"] = float(self.usage[g, c]) / col
+        self.usage.zero_()
+        self.switches = self.falls_after_switch = self.falls = 0
+        return out
+
+    def usage_shares(self) -> dict[str, float]:
+        """Share of robot-steps in each running gait since the last log (console line)."""
+        total = float(self.usage.sum())
+        return {n: float(self.usage[g].sum()) / total for g, n in enumerate(self.gait_names)} if total else {}
+
+
+class PredictiveGaitSelector(FixedGaitSelector):
+    """The paper's predictive selector: softmax(-p_est / tau) sampling over the library, tau annealed."""
+
+    name = "predictive"
+
+    def __init__(self, requested: torch.Tensor, gait_names: tuple[str, ...], start_gait: int, policy_dt: float,
+                 obs_dim: int, cfg, seed: int = 0):  # fmt: skip
+        super().__init__(requested, gait_names, start_gait, policy_dt)
+        self.cfg = cfg
+        dev = requested.device
+        n = len(requested)
+        self.horizon = max(1, int(round(cfg.horizon_s / policy_dt)))
+        self.decision_steps = max(1, int(round(cfg.decision_interval_s / policy_dt)))
+        if cfg.evaluation_selection not in ("argmin", "sample"):
+            raise ValueError(f"predictor.evaluation_selection must be 'argmin' or 'sample', got "
+                             f"{cfg.evaluation_selection!r}")  # fmt: skip
+        self.schedule = TemperatureSchedule(cfg.temperature_start, cfg.temperature_end, cfg.temperature_iterations,
+                                            cfg.temperature_shape)  # fmt: skip
+        self.iteration = 0
+        self.training = False
+        """True while the runner collects training data: sample at the schedule's tau and record windows."""
+        self.predictor = PowerPredictor(obs_dim, self.num_gaits, tuple(cfg.hidden_dims)).to(dev)
+        self.optimizer = torch.optim.Adam(self.predictor.parameters(), lr=cfg.learning_rate)
+        self.labeler = WindowLabeler(n, obs_dim, self.horizon, dev)
+        self.gen = torch.Generator(device=dev)
+        self.gen.manual_seed(seed + 7919)
+        self.in_gait = torch.zeros(n, dtype=torch.long, device=dev)
+        """Full policy steps run in the requested gait since it took effect (or since the last selection)."""
+        self.due = torch.ones(n, dtype=torch.bool, device=dev)
+        self.prev_active = requested.long().clone()
+        # Replay buffer (ring) and held-out windows.
+        cap = max(1, cfg.buffer_size)
+        self.buf_obs = torch.zeros(cap, obs_dim, device=dev)
+        self.buf_gait = torch.zeros(cap, dtype=torch.long, device=dev)
+        self.buf_y = torch.zeros(cap, device=dev)
+        self.buf_n = 0
+        self.buf_i = 0
+        hcap = max(1, int(cap * cfg.holdout_fraction))
+        self.hold_obs = torch.zeros(hcap, obs_dim, device=dev)
+        self.hold_gait = torch.zeros(hcap, dtype=torch.long, device=dev)
+        self.hold_y = torch.zeros(hcap, device=dev)
+        self.hold_n = 0
+        self.hold_i = 0
+        self.windows = 0
+        self.last_losses: dict[str, float] = {}
+
+    @property
+    def temperature(self) -> float:
+        """tau of the coming selections [W]; 0 means the argmin (evaluation default)."""
+        if self.training or self.cfg.evaluation_selection == "sample":
+            return self.schedule(self.iteration)
+        return 0.0
+
+    def set_iteration(self, iteration: int) -> None:
+        self.iteration = int(iteration)
+
+    # --- env hooks ---------------------------------------------------------------------------------------------------
+    def record_step(self, p_cost, active, commands, reset, died) -> None:
+        super().record_step(p_cost, active, commands, reset, died)
+        active = active.long()
+        req = self.requested.long()
+        ran = (active == req) & (self.prev_active == req)
+        self.in_gait = torch.where(ran, self.in_gait + 1, torch.zeros_like(self.in_gait))
+        self.due |= self.in_gait >= self.decision_steps
+        self.prev_active = active.clone()
+        if self.training:
+            obs, gait, y = self.labeler.step(p_cost, active, reset)
+            if len(y):
+                self._store(obs, gait, y)
+
+    def on_reset(self, ids: torch.Tensor) -> None:
+        super().on_reset(ids)
+        self.due[ids] = True
+        self.in_gait[ids] = 0
+
+    @torch.no_grad()
+    def select(self, obs: torch.Tensor, active: torch.Tensor) -> None:
+        active = active.long()
+        self.prev_active = active.clone()  # resets restart robots in their requested gait
+        ids = self.due.nonzero(as_tuple=False).flatten()
+        if len(ids):
+            power = self.predictor(obs[ids])
+            probs = gait_probabilities(power, self.temperature)
+            choice = torch.multinomial(probs, 1, generator=self.gen).flatten()
+            self.requested[ids] = choice.to(self.requested.dtype)
+            self.in_gait[ids] = 0
+            self.due[ids] = False
+        if self.training:
+            self.labeler.start(obs, active, self.requested.long())
+
+    def predict(self, obs: torch.Tensor) -> torch.Tensor:
+        """Predicted mean p_cost of each gait over the horizon (N, G) [W]."""
+        with torch.no_grad():
+            return self.predictor(obs)
+
+    # --- learning ----------------------------------------------------------------------------------------------------
+    def _store(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor) -> None:
+        """Add completed windows: every ``1/holdout_fraction``-th window goes to the held-out set."""
+        every = int(round(1.0 / self.cfg.holdout_fraction)) if self.cfg.holdout_fraction > 0 else 0
+        for k in range(len(y)):
+            self.windows += 1
+            if every and self.windows % every == 0:
+                i = self.hold_i
+                self.hold_obs[i], self.hold_gait[i], self.hold_y[i] = obs[k], gait[k], y[k]
+                self.hold_i = (i + 1) % len(self.hold_y)
+                self.hold_n = min(self.hold_n + 1, len(self.hold_y))
+            else:
+                i = self.buf_i
+                self.buf_obs[i], self.buf_gait[i], self.buf_y[i] = obs[k], gait[k], y[k]
+                self.buf_i = (i + 1) % len(self.buf_y)
+                self.buf_n = min(self.buf_n + 1, len(self.buf_y))
+
+    def add_windows(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor) -> None:
+        """Add labelled windows directly (tests, offline data)."""
+        self._store(obs, gait.long(), y)
+
+    def _update_normalization(self) -> None:
+        n = self.buf_n
+        x, g, y = self.buf_obs[:n], self.buf_gait[:n], self.buf_y[:n]
+        p = self.predictor
+        p.obs_mean.copy_(x.mean(0))
+        p.obs_std.copy_(x.std(0, unbiased=False).clamp(min=1e-3) if n > 1 else torch.ones_like(p.obs_std))
+        for k in range(self.num_gaits):
+            yk = y[g == k]
+            if len(yk) >= 2:
+                p.target_mean[k] = yk.mean()
+                p.target_std[k] = yk.std(unbiased=False).clamp(min=0.1)
+
+    def fit(self) -> dict[str, float]:
+        """Masked regression on the replay buffer: only the output of the gait that ran is trained."""
+        if self.buf_n < self.cfg.batch_size // 4:
+            return {}
+        cfg, p = self.cfg, self.predictor
+        with torch.inference_mode(False), torch.enable_grad():
+            self._update_normalization()
+            losses = []
+            for _ in range(cfg.updates_per_iteration):
+                idx = torch.randint(0, self.buf_n, (min(cfg.batch_size, self.buf_n),), generator=self.gen,
+                                    device=self.buf_y.device)  # fmt: skip
+                x, g, y = self.buf_obs[idx].clone(), self.buf_gait[idx].clone(), self.buf_y[idx].clone()
+                pred = p.normalized(x).gather(1, g[:, None]).squeeze(1)
+                target = (y - p.target_mean[g]) / p.target_std[g]
+                loss = torch.mean((pred - target) ** 2)
+                self.optimizer.zero_grad()
+                loss.backward()
+                self.optimizer.step()
+                losses.append(loss.item())
+        out = {"loss": sum(losses) / len(losses)}
+        out.update(self.holdout_errors())
+        self.last_losses = out
+        return out
+
+    @torch.no_grad()
+    def holdout_errors(self) -> dict[str, float]:
+        """Relative error per gait on held-out windows: mean |p_est - p| / mean p (never trained on)."""
+        out = {}
+        n = self.hold_n
+        if n == 0:
+            return out
+        pred = self.predictor(self.hold_obs[:n]).gather(1, self.hold_gait[:n, None]).squeeze(1)
+        for k, name in enumerate(self.gait_names):
+            m = self.hold_gait[:n] == k
+            if m.any():
+                y = self.hold_y[:n][m]
+                out[f"rel_error_{name}"] = float((pred[m] - y).abs().mean() / y.abs().mean().clamp(min=1e-6))
+        return out
+
+    def log_scalars(self) -> dict[str, float]:
+        out = super().log_scalars()
+        out["Gait/temperature"] = self.temperature
+        for k, v in self.last_losses.items():
+            out[f"Predictor/{k}"] = v
+        out["Predictor/windows"] = float(self.windows)
+        out["Predictor/windows_dropped"] = float(self.labeler.dropped)
+        return out
+
+    # --- checkpoints -------------------------------------------------------------------------------------------------
+    def state_dict(self) -> dict:
+        return {"name": self.name, "predictor": self.predictor.state_dict(),
+                "optimizer": self.optimizer.state_dict(), "iteration": self.iteration}  # fmt: skip
+
+    def load_state_dict(self, state: dict) -> None:
+        super().load_state_dict(state)
+        self.predictor.load_state_dict(state["predictor"])
+        if "optimizer" in state:
+            self.optimizer.load_state_dict(state["optimizer"])
+        self.iteration = int(state.get("iteration", 0))
+
+
+def make_gait_selector(cfg, requested: torch.Tensor | None, gait_names: tuple[str, ...], start_gait: int,
+                       policy_dt: float, obs_dim: int) -> GaitSelector:  # fmt: skip
+    """The selector of ``cfg.gait.selection`` (``cfg``: ``wqwarp.config.EnvConfig``)."""
+    sel = cfg.gait.selection
+    if sel == "none":
+        return GaitSelector()
+    if sel == "fixed":
+        return FixedGaitSelector(requested, gait_names, start_gait, policy_dt)
+    if sel == "predictive":
+        return PredictiveGaitSelector(requested, gait_names, start_gait, policy_dt, obs_dim, cfg.predictor, cfg.seed)
+    raise ValueError(f"unknown gait.selection {sel!r}; choose none, fixed or predictive")
