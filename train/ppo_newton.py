@@ -107,8 +107,15 @@ def parse_args(argv=None) -> argparse.Namespace:
         nargs=2,
         default=None,
         metavar=("START", "END"),
-        help="predictive presets: softmax temperature tau [W] at iteration 0 and at the end of the annealing "
-        "(default 100 1)",
+        help="predictive presets: softmax temperature tau at iteration 0 and at the end of the annealing "
+        "(default 2 0.05, fractions of the mean predicted power; in W with --power-normalization watts)",
+    )
+    p.add_argument(
+        "--power-normalization",
+        choices=("mean", "watts"),
+        default=None,
+        help="predictive presets: softmax over p_est / mean(p_est) (mean, the default: tau is scale-free) or over "
+        "p_est in W (watts: the paper's formula literally; collapses on driving early, see the README)",
     )
     p.add_argument(
         "--temperature-iterations",
@@ -246,6 +253,8 @@ def main(argv=None) -> int:
     p = cfg.predictor
     if args.temperature is not None:
         p.temperature_start, p.temperature_end = args.temperature
+    if args.power_normalization is not None:
+        p.power_normalization = args.power_normalization
     if args.temperature_iterations is not None:
         p.temperature_iterations = args.temperature_iterations
     if args.temperature_shape is not None:
@@ -255,7 +264,7 @@ def main(argv=None) -> int:
             fail(f"--decision-interval must be > 0 s, got {args.decision_interval}")
         p.decision_interval_s = args.decision_interval
     if args.temperature is not None and min(args.temperature) <= 0:
-        fail(f"--temperature values must be > 0 W, got {args.temperature}")
+        fail(f"--temperature values must be > 0, got {args.temperature}")
     if args.temperature_iterations is not None and args.temperature_iterations < 0:
         fail(f"--temperature-iterations must be >= 0, got {args.temperature_iterations}")
     tcfg = TrainConfig(max_iterations=args.max_iterations, save_interval=args.save_interval,

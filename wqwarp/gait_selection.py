@@ -5,7 +5,9 @@ One interface, three selectors (:func:`make_gait_selector` picks one from ``Gait
     fixed       every robot requests ``GaitConfig.fixed_gait``
     predictive  a power prediction network estimates, from the actor observation o_t, each gait's mean p_cost over
                 the next ``horizon_s`` (1 s); robots sample their gait with probabilities softmax(-p_est / tau),
-                tau annealed over the PPO iterations (:class:`TemperatureSchedule`)
+                tau annealed over the PPO iterations (:class:`TemperatureSchedule`); by default p_est is divided
+                by its mean over the gaits first (``PredictorConfig.power_normalization``), which leaves the argmin
+                unchanged and makes tau a fraction of the robot's mean predicted power
 
 The environment owns a selector and calls it at fixed points of ``step`` (:meth:`GaitSelector.record_step` after the
 physics, :meth:`GaitSelector.on_reset` for robots reset, :meth:`GaitSelector.select` once o_t is known). The
@@ -53,7 +55,8 @@ def command_type(commands: torch.Tensor) -> torch.Tensor:
 # --- temperature -----------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class TemperatureSchedule:
-    """tau(iteration): from ``start`` at iteration 0 to ``end`` at ``iterations``, constant afterwards [W]."""
+    """tau(iteration): from ``start`` at iteration 0 to ``end`` at ``iterations``, constant afterwards (a fraction
+    of the mean predicted power, or W, by ``PredictorConfig.power_normalization``)."""
 
     start: float
     end: float
@@ -267,6 +270,9 @@ class PredictiveGaitSelector(FixedGaitSelector):
         n = len(requested)
         self.horizon = max(1, int(round(cfg.horizon_s / policy_dt)))
         self.decision_steps = max(1, int(round(cfg.decision_interval_s / policy_dt)))
+        if cfg.power_normalization not in ("mean", "watts"):
+            raise ValueError(f"predictor.power_normalization must be 'mean' or 'watts', got "
+                             f"{cfg.power_normalization!r}")  # fmt: skip
         if cfg.evaluation_selection not in ("argmin", "sample"):
             raise ValueError(f"predictor.evaluation_selection must be 'argmin' or 'sample', got "
                              f"{cfg.evaluation_selection!r}")  # fmt: skip
@@ -336,6 +342,8 @@ class PredictiveGaitSelector(FixedGaitSelector):
         ids = self.due.nonzero(as_tuple=False).flatten()
         if len(ids):
             power = self.predictor(obs[ids])
+            if self.cfg.power_normalization == "mean":
+                power = power / power.mean(dim=1, keepdim=True).clamp(min=1.0)
             probs = gait_probabilities(power, self.temperature)
             choice = torch.multinomial(probs, 1, generator=self.gen).flatten()
             self.requested[ids] = choice.to(self.requested.dtype)

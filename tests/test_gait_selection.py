@@ -1,0 +1,308 @@
+"""Predictive gait selection: window labels, softmax sampling and the temperature schedule, the power predictor's
+fit, the env's gait bookkeeping, and that evaluation and export never change a learned parameter."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import torch
+
+from wqwarp.config import PredictorConfig, make_preset
+from wqwarp.gait_selection import (
+    COMMAND_TYPES,
+    PowerPredictor,
+    PredictiveGaitSelector,
+    TemperatureSchedule,
+    WindowLabeler,
+    command_type,
+    gait_probabilities,
+)
+
+GAITS = ("driving", "trotting", "walking")
+
+
+# --- window labelling ------------------------------------------------------------------------------------------------
+def test_windows_are_labelled_with_the_realised_mean_and_cut_windows_are_dropped():
+    # Four robots, horizon 3 steps. Robot 0 runs gait 1 throughout; robot 1 is reset in its second step; robot 2's
+    # running gait changes in its third step; robot 3 has a switch pending (requested 2, running 0) at the start.
+    lab = WindowLabeler(4, obs_dim=2, horizon=3)
+    obs0 = torch.arange(8, dtype=torch.float32).reshape(4, 2)
+    active = torch.tensor([1, 1, 1, 0])
+    lab.start(obs0, active, requested=torch.tensor([1, 1, 1, 2]))
+    assert lab.open.tolist() == [True, True, True, False]
+    no = torch.zeros(4, dtype=torch.bool)
+    p = [torch.tensor([1.0, 10.0, 100.0, 5.0]), torch.tensor([2.0, 20.0, 200.0, 5.0]),
+         torch.tensor([6.0, 30.0, 300.0, 5.0])]  # fmt: skip
+    out = lab.step(p[0], active, no)
+    assert len(out[2]) == 0
+    out = lab.step(p[1], active, torch.tensor([False, True, False, False]))  # robot 1 reset
+    assert len(out[2]) == 0 and lab.open.tolist() == [True, False, True, False]
+    out = lab.step(p[2], torch.tensor([1, 1, 2, 0]), no)  # robot 2's gait switched
+    x, g, y = out
+    assert y.tolist() == [pytest.approx(3.0)]  # (1 + 2 + 6) / 3, robot 0 only
+    assert g.tolist() == [1] and x.tolist() == [[0.0, 1.0]]
+    assert lab.dropped == 2 and not lab.open.any()
+    # A new window starts only where the requested gait is running.
+    lab.start(obs0 + 1, torch.tensor([1, 1, 2, 0]), requested=torch.tensor([1, 0, 2, 2]))
+    assert lab.open.tolist() == [True, False, True, False]
+
+
+def _selector(n: int, dt: float = 1.0 / 3.0, **over) -> PredictiveGaitSelector:
+    kw = {"horizon_s": 1.0, "decision_interval_s": 1.0, "buffer_size": 64, "holdout_fraction": 0.25, **over}
+    cfg = PredictorConfig(**kw)
+    sel = PredictiveGaitSelector(torch.zeros(n, dtype=torch.int32), GAITS, 1, dt, obs_dim=2, cfg=cfg)
+    sel.training = True
+    return sel
+
+
+def _constant_power(sel: PredictiveGaitSelector, watts) -> None:
+    """Set the predictor's parameters so that it predicts ``watts`` for every observation."""
+    with torch.no_grad():
+        for prm in sel.predictor.net.parameters():
+            prm.zero_()
+        sel.predictor.net[-1].bias.copy_(torch.tensor(watts))
+
+
+def test_selector_holds_a_gait_for_the_decision_interval_and_labels_one_window_per_selection():
+    # Horizon = decision interval = 3 policy steps. The predictor makes trotting (1) the only choice (tau -> 0).
+    sel = _selector(2, temperature_start=1e-6, temperature_end=1e-6)
+    _constant_power(sel, [9.0, 1.0, 9.0])
+    obs = torch.tensor([[0.5, -0.5], [1.0, 2.0]])
+    running = torch.tensor([1, 1])
+    cmd = torch.zeros(2, 3)
+    no = torch.zeros(2, dtype=torch.bool)
+    sel.select(obs, running)  # both due at start
+    assert sel.requested.tolist() == [1, 1] and not sel.due.any()
+    for k, watts in enumerate([3.0, 4.0, 8.0]):
+        sel.record_step(torch.tensor([watts, 1.0]), running, cmd, no, no)
+        if k < 2:
+            assert not sel.due.any()
+            sel.select(obs, running)
+    assert sel.due.all() and sel.buf_n + sel.hold_n == 2
+    labels = sorted(torch.cat([sel.buf_y[: sel.buf_n], sel.hold_y[: sel.hold_n]]).tolist())
+    assert labels == [pytest.approx(1.0), pytest.approx(5.0)]
+    # A reset makes a robot due at once and drops its open window.
+    sel.select(obs, running)
+    sel.record_step(torch.tensor([1.0, 1.0]), running, cmd, torch.tensor([True, False]), torch.tensor([True, False]))
+    sel.on_reset(torch.tensor([0]))
+    assert sel.due.tolist() == [True, False] and sel.labeler.dropped == 1
+
+
+# --- sampling and temperature ----------------------------------------------------------------------------------------
+@pytest.mark.parametrize("tau", [2.0, 5.0])
+def test_sampling_frequencies_match_the_softmax(tau):
+    n = 20000
+    watts = [4.0, 7.0, 10.0]
+    sel = _selector(n, temperature_start=tau, temperature_end=tau)
+    _constant_power(sel, watts)
+    sel.select(torch.zeros(n, 2), torch.ones(n, dtype=torch.long))
+    freq = torch.bincount(sel.requested.long(), minlength=3).double() / n
+    expect = torch.softmax(-torch.tensor(watts, dtype=torch.float64) / tau, 0)
+    # Each frequency is binomial: 4.5 standard deviations bound a false failure at about 1e-5.
+    sigma = torch.sqrt(expect * (1 - expect) / n)
+    assert torch.all((freq - expect).abs() < 4.5 * sigma), (freq, expect)
+
+
+def test_tau_to_zero_gives_the_argmin_and_large_tau_uniform():
+    p = torch.tensor([[3.0, 1.0, 2.0], [0.5, 0.7, 0.1]])
+    assert gait_probabilities(p, 0.0).argmax(1).tolist() == [1, 2]
+    assert torch.allclose(gait_probabilities(p, 1e-4), torch.tensor([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]))
+    assert torch.allclose(gait_probabilities(p, 1e6), torch.full((2, 3), 1 / 3), atol=1e-5)
+    # Outside training the selector takes the argmin (evaluation default), whatever the schedule says.
+    sel = _selector(500, temperature_start=1e3, temperature_end=1e3)
+    sel.training = False
+    _constant_power(sel, [2.0, 1.9, 2.1])
+    sel.select(torch.zeros(500, 2), torch.ones(500, dtype=torch.long))
+    assert sel.temperature == 0.0 and (sel.requested == 1).all()
+
+
+@pytest.mark.parametrize("shape", ["exponential", "linear", "cosine"])
+def test_temperature_schedule_is_monotone_between_its_ends(shape):
+    s = TemperatureSchedule(100.0, 1.0, 1000, shape)
+    vals = [s(i) for i in range(0, 1201, 25)]
+    assert vals[0] == pytest.approx(100.0) and s(1000) == pytest.approx(1.0) and s(5000) == pytest.approx(1.0)
+    assert all(a >= b for a, b in zip(vals, vals[1:], strict=False))
+    assert all(1.0 - 1e-9 <= v <= 100.0 + 1e-9 for v in vals)
+    if shape == "exponential":
+        assert s(500) == pytest.approx(10.0)  # geometric mean halfway
+    with pytest.raises(ValueError, match="temperature"):
+        TemperatureSchedule(0.0, 1.0, 10)
+    with pytest.raises(ValueError, match="shape"):
+        TemperatureSchedule(10.0, 1.0, 10, "step")
+
+
+def test_command_types():
+    cmd = torch.tensor([[0.5, 0, 0], [0, -0.3, 0], [0, 0, 0.6], [0.5, 0.2, 0], [0.01, 0, 0.02]])
+    assert [COMMAND_TYPES[i] for i in command_type(cmd)] == ["forward", "lateral", "yaw", "mixed", "zero"]
+
+
+# --- the network -----------------------------------------------------------------------------------------------------
+def test_predictor_fits_a_synthetic_power_function_of_the_observation():
+    # p_g(o) = a_g + b_g * o0^2 + c_g * o1 with distinct coefficients per gait, labels only for the gait that ran.
+    torch.manual_seed(0)
+    n = 6000
+    sel = _selector(1, learning_rate=3e-3, batch_size=256, updates_per_iteration=50, buffer_size=n)
+    sel.predictor = PowerPredictor(2, 3, (64, 64))
+    sel.optimizer = torch.optim.Adam(sel.predictor.parameters(), lr=3e-3)
+    x = torch.rand(n, 2) * 2 - 1
+    coef = torch.tensor([[5.0, 2.0, 1.0], [25.0, 10.0, -4.0], [40.0, -6.0, 8.0]])
+
+    def truth(obs):
+        return coef[:, 0] + coef[:, 1] * obs[:, :1] ** 2 + coef[:, 2] * obs[:, 1:2]
+
+    gait = torch.randint(0, 3, (n,))
+    y = truth(x).gather(1, gait[:, None]).squeeze(1)
+    sel.add_windows(x, gait, y)
+    for _ in range(30):
+        out = sel.fit()
+    xt = torch.rand(500, 2) * 2 - 1
+    err = (sel.predict(xt) - truth(xt)).abs().mean(0)
+    assert torch.all(err < torch.tensor([0.4, 0.8, 1.0])), err  # the spread of p per gait is 3, 14, 22 W
+    for g in GAITS:  # the held-out relative error per gait is reported and small
+        assert out[f"rel_error_{g}"] < 0.05
+
+
+# --- the env and the runner ------------------------------------------------------------------------------------------
+def _env(preset: str, n: int = 4):
+    from wqwarp.env import WheeledGo1Env
+
+    cfg = make_preset(preset)
+    cfg.sim.num_envs = n
+    return WheeledGo1Env(cfg)
+
+
+def test_requested_gait_has_one_home_and_the_critic_reads_the_running_gait():
+    import warp as wp
+
+    env = _env("ours", 6)
+    env.collect_training_data = True
+    _constant_power(env.gait_selector, [1.0, 50.0, 50.0])  # driving is (by far) the cheapest
+    env.gait_selector.schedule = TemperatureSchedule(1e-3, 1e-3, 0)
+    obs, *_ = env.step(torch.zeros(6, env.num_actions))
+    req = wp.to_torch(env.nominal.gait_id)
+    assert env.gait_selector.requested.data_ptr() == req.data_ptr()
+    assert (env.requested_gait() == 0).all()
+    onehot = obs["privileged"][:, -3:]
+    running = env.active_gait()
+    assert torch.equal(onehot.argmax(1), running)
+    # Trotting -> driving waits for an all-stance moment; the critic follows the running gait, not the request.
+    for _ in range(40):
+        obs, *_ = env.step(torch.zeros(6, env.num_actions))
+        assert torch.equal(obs["privileged"][:, -3:].argmax(1), env.active_gait())
+    assert (env.active_gait() == 0).all()
+
+
+@pytest.mark.parametrize("preset", ["ours", "no_wheel_vel"])
+def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(preset, tmp_path):
+    import contextlib
+    import io
+
+    from wqwarp.config import TrainConfig
+    from wqwarp.runner import WqRunner, export_onboard_policy
+
+    env = _env(preset, 8)
+    assert env.cfg.gait.selection == "predictive"
+    assert env.cfg.action.use_nominal_wheels == (preset == "ours")
+    tcfg = TrainConfig(num_steps_per_env=60, max_iterations=2, save_interval=1)
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner = WqRunner(env, tcfg.rsl_rl_dict(), log_dir=str(tmp_path), device="cpu")
+        runner.learn(2)
+    sel = env.gait_selector
+    assert sel.windows > 0 and sel.iteration == 2 and "predictor" in runner.last_aux
+    assert not env.collect_training_data  # learning is over: the env stores nothing any more
+    scalars = runner.last_gait_scalars
+    assert scalars["Gait/temperature"] == pytest.approx(sel.schedule(1))
+    assert sum(scalars[f"Gait/usage_{g}"] for g in GAITS) == pytest.approx(1.0)
+    ckpt = torch.load(tmp_path / "model_1.pt", weights_only=False)
+    state = ckpt["infos"]["gait_selector"]
+    assert state["name"] == "predictive" and state["iteration"] == 2
+
+    env2 = _env(preset, 8)
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner2 = WqRunner(env2, tcfg.rsl_rl_dict(), log_dir=None, device="cpu")
+    runner2.load(str(tmp_path / "model_1.pt"))
+    obs = env2.get_observations()["policy"]
+    assert torch.equal(env2.gait_selector.predict(obs), sel.predict(obs))
+    assert env2.gait_selector.iteration == 2
+
+    # The export returns the actions and each gait's predicted power; its json states the argmin rule.
+    paths = export_onboard_policy(runner2, str(tmp_path / "export"))
+    policy = torch.jit.load(paths["torchscript"])
+    meta = json.loads(open(paths["json"]).read())
+    actions, power = policy(torch.zeros(3, meta["history_length"], meta["proprio_dim"]))
+    assert actions.shape == (3, 20) and power.shape == (3, 3) and torch.isfinite(power).all()
+    assert meta["gait_selection"]["gaits"] == list(GAITS) and "argmin" in meta["gait_selection"]["rule"]
+
+
+def test_a_fixed_gait_checkpoint_cannot_drive_the_predictive_selection(tmp_path):
+    import contextlib
+    import io
+
+    from wqwarp.config import TrainConfig
+    from wqwarp.runner import WqRunner
+
+    env = _env("no_predictor")
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner = WqRunner(env, TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu")
+    runner.save(str(tmp_path / "m.pt"))
+    env2 = _env("ours")
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner2 = WqRunner(env2, TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu")
+    with pytest.raises(ValueError, match="gait selector"):
+        runner2.load(str(tmp_path / "m.pt"))
+
+
+def test_estimator_and_predictor_do_not_change_during_evaluation_playback_or_export(tmp_path):
+    import contextlib
+    import io
+
+    from wqwarp.config import TrainConfig
+    from wqwarp.evaluation import run_task
+    from wqwarp.play import make_policy_runner
+    from wqwarp.runner import WqRunner, export_onboard_policy
+
+    env = _env("ours", 8)
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner = WqRunner(env, TrainConfig(num_steps_per_env=60).rsl_rl_dict(), log_dir=str(tmp_path), device="cpu")
+        runner.learn(1)
+    ckpt = str(tmp_path / "model_0.pt")
+    pr = make_policy_runner(ckpt, "ours", num_envs=4)
+
+    def params():
+        mods = [pr.env.estimator, pr.env.gait_selector.predictor]
+        return [t.detach().clone() for m in mods for t in list(m.parameters()) + list(m.buffers())]
+
+    before = params()
+    run_task(pr, "vx", seconds=1.5, settle=0.5)
+    for _ in range(60):  # playback (tools/export_usd.py --checkpoint drives the env the same way)
+        pr.env.step(pr.policy(pr.env.get_observations()))
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner2 = WqRunner(pr.env, TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu")
+    runner2.load(ckpt)
+    export_onboard_policy(runner2, str(tmp_path / "export"))
+    after = params()
+    assert all(torch.equal(a, b) for a, b in zip(before, after, strict=True))
+    assert pr.env.estimator_trainer._inputs == [] and pr.env.gait_selector.buf_n == 0
+
+
+def test_selection_switches_only_when_no_leg_of_the_running_gait_swings():
+    import warp as wp
+
+    from wqwarp.gaits import GAIT_LIBRARY
+
+    env = _env("ours", 8)
+    env.collect_training_data = True
+    env.gait_selector.schedule = TemperatureSchedule(1e6, 1e6, 0)  # uniform: many switches
+    df = torch.tensor([g.df_swing for g in GAIT_LIBRARY])
+    switches = 0
+    for _ in range(150):
+        before = env.active_gait().clone()
+        phase = wp.to_torch(env.nominal.phase).clone()
+        env.step(torch.zeros(8, env.num_actions))
+        changed = (env.active_gait() != before) & (env.episode_length_buf > 0)  # not a reset
+        switches += int(changed.sum())
+        if changed.any():
+            assert torch.all(phase[changed] >= df[before[changed]][:, None] - 1e-6)
+    assert switches >= 8
+    assert env.gait_selector.log_scalars()["Gait/switches_per_robot_minute"] > 0
