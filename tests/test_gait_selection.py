@@ -90,15 +90,16 @@ def test_selector_holds_a_gait_for_the_decision_interval_and_labels_one_window_p
 
 
 # --- sampling and temperature ----------------------------------------------------------------------------------------
-@pytest.mark.parametrize("tau", [2.0, 5.0])
-def test_sampling_frequencies_match_the_softmax(tau):
+@pytest.mark.parametrize(("tau", "normalization"), [(2.0, "watts"), (5.0, "watts"), (0.3, "mean")])
+def test_sampling_frequencies_match_the_softmax(tau, normalization):
     n = 20000
-    watts = [4.0, 7.0, 10.0]
-    sel = _selector(n, temperature_start=tau, temperature_end=tau)
-    _constant_power(sel, watts)
+    watts = torch.tensor([4.0, 7.0, 10.0], dtype=torch.float64)
+    sel = _selector(n, temperature_start=tau, temperature_end=tau, power_normalization=normalization)
+    _constant_power(sel, watts.tolist())
     sel.select(torch.zeros(n, 2), torch.ones(n, dtype=torch.long))
     freq = torch.bincount(sel.requested.long(), minlength=3).double() / n
-    expect = torch.softmax(-torch.tensor(watts, dtype=torch.float64) / tau, 0)
+    p = watts if normalization == "watts" else watts / watts.mean()  # mean: tau is a fraction of the mean power
+    expect = torch.softmax(-p / tau, 0)
     # Each frequency is binomial: 4.5 standard deviations bound a false failure at about 1e-5.
     sigma = torch.sqrt(expect * (1 - expect) / n)
     assert torch.all((freq - expect).abs() < 4.5 * sigma), (freq, expect)
@@ -169,6 +170,8 @@ def _env(preset: str, n: int = 4):
 
     cfg = make_preset(preset)
     cfg.sim.num_envs = n
+    cfg.predictor.batch_size = 8  # a tiny rollout completes only a few windows: fit on few, hold out half
+    cfg.predictor.holdout_fraction = 0.5
     return WheeledGo1Env(cfg)
 
 
@@ -214,6 +217,17 @@ def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(pr
     scalars = runner.last_gait_scalars
     assert scalars["Gait/temperature"] == pytest.approx(sel.schedule(1))
     assert sum(scalars[f"Gait/usage_{g}"] for g in GAITS) == pytest.approx(1.0)
+    runner.logger.writer.flush()
+    import subprocess
+    import sys
+
+    root = __file__.rsplit("/tests/", 1)[0]
+    rep = subprocess.run([sys.executable, f"{root}/tools/gait_report.py", str(tmp_path), "--last", "1", "--json",
+                          str(tmp_path / "rep.json")], capture_output=True, text=True)  # fmt: skip
+    assert rep.returncode == 0, rep.stderr
+    logged = json.loads((tmp_path / "rep.json").read_text())["scalars"]
+    assert logged["Gait/temperature"] == pytest.approx(scalars["Gait/temperature"])
+    assert "Predictor/loss" in logged and any(k.startswith("Predictor/rel_error_") for k in logged)
     ckpt = torch.load(tmp_path / "model_1.pt", weights_only=False)
     state = ckpt["infos"]["gait_selector"]
     assert state["name"] == "predictive" and state["iteration"] == 2
@@ -306,3 +320,39 @@ def test_selection_switches_only_when_no_leg_of_the_running_gait_swings():
             assert torch.all(phase[changed] >= df[before[changed]][:, None] - 1e-6)
     assert switches >= 8
     assert env.gait_selector.log_scalars()["Gait/switches_per_robot_minute"] > 0
+
+
+def _sync_worker(rank: int, world: int, port: int, out_dir: str) -> None:
+    import torch.distributed as dist
+
+    from wqwarp.runner import _sync_module
+
+    dist.init_process_group("gloo", init_method=f"tcp://127.0.0.1:{port}", rank=rank, world_size=world)
+    torch.manual_seed(rank)  # different initial weights per rank
+    m = PowerPredictor(4, 3, (8,))
+    _sync_module(m, "broadcast")
+    start = [t.clone() for t in m.state_dict().values()]
+    with torch.no_grad():  # ranks fit different data: diverge, then average
+        for t in m.parameters():
+            t.add_(float(rank + 1))
+    _sync_module(m, "average")
+    torch.save({"start": start, "end": list(m.state_dict().values())}, f"{out_dir}/rank{rank}.pt")
+    dist.destroy_process_group()
+
+
+def test_auxiliary_learners_stay_identical_across_ranks(tmp_path):
+    import socket
+
+    import torch.multiprocessing as mp
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    mp.spawn(_sync_worker, args=(2, port, str(tmp_path)), nprocs=2, join=True)
+    r0, r1 = (torch.load(tmp_path / f"rank{r}.pt") for r in (0, 1))
+    assert all(torch.equal(a, b) for a, b in zip(r0["start"], r1["start"], strict=True))  # broadcast from rank 0
+    assert all(torch.equal(a, b) for a, b in zip(r0["end"], r1["end"], strict=True))  # averaged
+    torch.manual_seed(0)
+    ref = PowerPredictor(4, 3, (8,))
+    w0 = ref.net[0].weight
+    assert torch.allclose(r0["end"][4], w0 + 1.5)  # state_dict order: 4 buffers, then net.0.weight

@@ -40,8 +40,9 @@ def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
     # The exported onboard policy runs on a history of observations.
     policy = torch.jit.load(str(log / "export" / "policy.pt"))
     meta = json.loads((log / "export" / "policy.json").read_text())
-    out = policy(torch.zeros(2, meta["history_length"], meta["proprio_dim"]))
-    assert out.shape == (2, 20) and torch.isfinite(out).all()
+    actions, power = policy(torch.zeros(2, meta["history_length"], meta["proprio_dim"]))  # ours: + predictor
+    assert actions.shape == (2, 20) and torch.isfinite(actions).all() and power.shape == (2, 3)
+    assert meta["outputs"] == ["actions", "predicted_power"]
 
     # A fresh run into the same directory is refused (nothing already written is overwritten).
     r = _run("ppo_newton.py", "--num-envs", "8", "--max-iterations", "1", "--log-dir", str(log))

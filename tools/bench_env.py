@@ -6,8 +6,9 @@ Usage::
 
 For each N: ``sim_policy_steps_per_s`` = ``Simulator.step`` alone (actuation, power, physics, FK, contacts; fixed
 targets), ``env_steps_per_s`` = ``WheeledGo1Env.step`` with random actions from a fixed-size MLP actor (nominal gait,
-residual IK, rewards, resets, commands, pushes, estimator inference and its training every 24 steps,
-observations) - what PPO collection costs without the learning update. Both in robot-policy-steps per second.
+residual IK, rewards, resets, commands, pushes, estimator inference, gait selection (predictor inference with the
+predictive presets), observations; training data collected as during learning) - what PPO collection costs without
+the learning updates (PPO, estimator and predictor fits run in the runner). Both in robot-policy-steps per second.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ def bench(n: int, preset: str, seconds: float) -> dict:
     cfg = make_preset(preset)
     cfg.sim.num_envs = n
     env = WheeledGo1Env(cfg)
+    env.collect_training_data = True
     sim = env.sim
     actor = torch.nn.Sequential(torch.nn.Linear(env.num_obs, 256), torch.nn.ELU(), torch.nn.Linear(256, 128),
                                 torch.nn.ELU(), torch.nn.Linear(128, env.num_actions))  # fmt: skip
@@ -44,6 +46,7 @@ def bench(n: int, preset: str, seconds: float) -> dict:
         with torch.inference_mode():
             obs = env.get_observations()
             env.step(actor(obs["policy"]) * 0.1 + 0.3 * torch.randn(n, env.num_actions))
+        env.estimator_trainer.clear()  # no fit here: keep the collected pairs from growing
 
     env_sps = timed(env_step)
     sim.reset(list(range(n)))

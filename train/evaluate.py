@@ -7,7 +7,10 @@ Examples::
 
 Tracking tasks set one command axis, spread evenly over the paper's range (v_x in [-1, 1] m/s, v_y in [-0.7, 0.7]
 m/s, w in [-0.7, 0.7] rad/s), the others zero; errors and power are averaged after a 2 s settling time over robots
-that stayed upright. ``--push V`` adds random pushes up to V m/s every 15 s (Table III).
+that stayed upright. ``--push V`` adds random pushes up to V m/s every 15 s (Table III). With a predictive preset
+(ours, no_wheel_vel) each robot runs the argmin of its predicted gait powers (tau -> 0), reselected every decision
+interval, unless ``--sample-gaits``; the share of each running gait is reported per task. Nothing learns: the
+estimator and the power predictor stay as saved in the checkpoint.
 """
 
 from __future__ import annotations
@@ -42,6 +45,12 @@ def main(argv=None) -> int:
     p.add_argument("--seconds", type=float, default=20.0, help="length of each rollout [s] (default 20)")
     p.add_argument("--push", type=float, default=0.0, help="max push velocity [m/s]; 0 disables pushes (default)")
     p.add_argument("--device", default="cpu", help="cpu or cuda:N (default cpu)")
+    p.add_argument(
+        "--sample-gaits",
+        action="store_true",
+        help="predictive presets: sample gaits from softmax(-p/tau) at the checkpoint's tau instead of the argmin "
+        "(the default, tau -> 0)",
+    )
     p.add_argument("--json", default=None, help="also write the results to this JSON file")
     args = p.parse_args(argv)
     tasks = [t.strip() for t in args.tasks.split(",") if t.strip()]
@@ -63,9 +72,14 @@ def main(argv=None) -> int:
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    if args.sample_gaits:
+        if runner.env.gait_selector.name != "predictive":
+            print(f"error: --sample-gaits needs a predictive preset, not {runner.preset}", file=sys.stderr)
+            return 2
+        runner.env.cfg.predictor.evaluation_selection = "sample"
     results = []
     print(f"{runner.preset} checkpoint (iteration {runner.iteration}), {args.num_envs} robots, {args.seconds:g} s")
-    print(f"{'task':>6} {'MSE':>8} {'|err|':>8} {'p_cost [W]':>11} {'legs':>7} {'wheels':>7} {'upright':>8}")
+    print(f"{'task':>6} {'MSE':>8} {'|err|':>8} {'p_cost [W]':>11} {'legs':>7} {'wheels':>7} {'upright':>8}  gaits")
     for t in tasks:
 
         def show(k, n, t=t):
@@ -76,7 +90,8 @@ def main(argv=None) -> int:
         results.append(dataclasses.asdict(r))
         print(
             f"\r{t:>6} {r.mse:8.4f} {r.mean_abs_error:8.3f} {r.mean_p_cost:11.1f} {r.mean_p_cost_legs:7.1f} "
-            f"{r.mean_p_cost_wheels:7.1f} {100 * r.upright:7.1f}%"
+            f"{r.mean_p_cost_wheels:7.1f} {100 * r.upright:7.1f}%  "
+            + " ".join(f"{g} {100 * v:.0f}%" for g, v in (r.gait_usage or {}).items() if v > 0)
         )
     if args.json:
         with open(args.json + ".tmp", "w", encoding="utf-8") as f:

@@ -38,6 +38,12 @@ class EvalResult:
     upright: float
     """Share of robots whose trunk never touched the ground [-]."""
     max_push: float = 0.0
+    gait_usage: dict | None = None
+    """Share of robot-steps in each running gait (all robots, settling included) [-]."""
+    gait_switches_per_robot_minute: float = 0.0
+    """Changes of the running gait per robot and minute."""
+    falls_within_1s_of_switch: int = 0
+    """Trunk-ground contacts within 1 s after a gait switch."""
 
 
 def spread_commands(task: str, n: int) -> torch.Tensor:
@@ -68,6 +74,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     settle_steps = int(round(settle / env.dt))
     push_steps = int(round(push_interval / env.dt)) if max_push > 0 else 0
     fell = torch.zeros(n, dtype=torch.bool, device=env.device)
+    env.gait_selector.log_scalars()  # restart the selector's usage counters
     sq, ab, power, legs, wheels, count = (torch.zeros(n, device=env.device) for _ in range(6))
     for k in range(steps):
         if push_steps and k > 0 and k % push_steps == 0:
@@ -88,6 +95,8 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
             count += 1
         if progress is not None:
             progress(k + 1, steps)
+    gait = env.gait_selector.log_scalars()
+    usage = {k[len("Gait/usage_"):]: v for k, v in gait.items() if k.startswith("Gait/usage_") and k.count("_") == 1}
     c = torch.clamp(count, min=1)
     ok = ~fell
     sel = ok if ok.any() else torch.ones_like(ok)
@@ -95,5 +104,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
         task=task, num_robots=n, seconds=seconds, mse=float((sq / c)[sel].mean()),
         mean_abs_error=float((ab / c)[sel].mean()), mean_p_cost=float((power / c)[sel].mean()),
         mean_p_cost_legs=float((legs / c)[sel].mean()), mean_p_cost_wheels=float((wheels / c)[sel].mean()),
-        upright=float(ok.float().mean()), max_push=max_push,
+        upright=float(ok.float().mean()), max_push=max_push, gait_usage=usage or None,
+        gait_switches_per_robot_minute=gait.get("Gait/switches_per_robot_minute", 0.0),
+        falls_within_1s_of_switch=int(gait.get("Gait/falls_within_1s_of_switch", 0)),
     )  # fmt: skip

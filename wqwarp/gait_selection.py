@@ -304,6 +304,8 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.hold_n = 0
         self.hold_i = 0
         self.windows = 0
+        self.used_temperature = self.temperature
+        """tau of the latest selection (logged for the rollout it belongs to)."""
         self.last_losses: dict[str, float] = {}
 
     @property
@@ -339,6 +341,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
     def select(self, obs: torch.Tensor, active: torch.Tensor) -> None:
         active = active.long()
         self.prev_active = active.clone()  # resets restart robots in their requested gait
+        self.used_temperature = self.temperature
         ids = self.due.nonzero(as_tuple=False).flatten()
         if len(ids):
             power = self.predictor(obs[ids])
@@ -431,7 +434,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
 
     def log_scalars(self) -> dict[str, float]:
         out = super().log_scalars()
-        out["Gait/temperature"] = self.temperature
+        out["Gait/temperature"] = self.used_temperature
         for k, v in self.last_losses.items():
             out[f"Predictor/{k}"] = v
         out["Predictor/windows"] = float(self.windows)

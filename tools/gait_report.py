@@ -1,0 +1,71 @@
+"""Summarise a training run's gait selection from its TensorBoard events: gait usage overall and per command type,
+temperature, switch rate, falls after a switch, and the power predictor's loss and held-out relative error per gait.
+
+Usage::
+
+    python tools/gait_report.py RUN_DIR [--last 100] [--json docs/gait_report.json]
+
+Each value is the mean over the last ``--last`` logged iterations (the scalars are written once per iteration by
+``wqwarp.runner.WqRunner``); a fixed-gait run reports its usage and switch counts too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+
+def summarise(run_dir: str, last: int) -> dict:
+    """tag -> mean over the last ``last`` iterations, for the ``Gait/*``, ``Predictor/*`` and ``Metrics/*`` tags."""
+    from plot_learning_curve import load_scalars
+
+    scalars = load_scalars(run_dir)
+    out: dict = {"run": run_dir, "last_iterations": last, "scalars": {}}
+    for tag, (steps, values, _) in sorted(scalars.items()):
+        if not tag.startswith(("Gait/", "Predictor/", "Metrics/")) or not values:
+            continue
+        tail = values[-last:]
+        out["scalars"][tag] = sum(tail) / len(tail)
+        out["last_step"] = max(out.get("last_step", 0), steps[-1])
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap.add_argument("run", help="run directory written by train/ppo_newton.py")
+    ap.add_argument("--last", type=int, default=100, help="iterations averaged at the end of the run (default 100)")
+    ap.add_argument("--json", default=None, help="also write the summary to this JSON file")
+    args = ap.parse_args(argv)
+    if not os.path.isdir(args.run):
+        print(f"error: no such run directory {args.run!r}", file=sys.stderr)
+        return 2
+    if args.last < 1:
+        print("error: --last must be >= 1", file=sys.stderr)
+        return 2
+    rep = summarise(args.run, args.last)
+    if not rep["scalars"]:
+        print(f"error: {args.run!r} holds no Gait/, Predictor/ or Metrics/ scalars", file=sys.stderr)
+        return 2
+    from wqwarp.provenance import git_state
+
+    rep["command"] = " ".join(sys.argv)
+    rep["git"] = git_state()
+    print(f"{args.run}: mean over the last {args.last} iterations (up to iteration {rep.get('last_step')})")
+    for k, v in rep["scalars"].items():
+        print(f"  {k:<45} {v:10.4f}")
+    if args.json:
+        tmp = args.json + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(rep, f, indent=2)
+        os.replace(tmp, args.json)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
