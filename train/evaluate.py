@@ -46,6 +46,13 @@ def main(argv=None) -> int:
     p.add_argument("--push", type=float, default=0.0, help="max push velocity [m/s]; 0 disables pushes (default)")
     p.add_argument("--device", default="cpu", help="cpu or cuda:N (default cpu)")
     p.add_argument(
+        "--dt",
+        type=float,
+        default=None,
+        help="physics step [s] (default: the training value 0.005); the policy keeps its 50 Hz step, e.g. --dt 0.001 "
+        "checks that a power figure is not an artefact of the time step (the paper trains at 0.001)",
+    )
+    p.add_argument(
         "--sample-gaits",
         action="store_true",
         help="predictive presets: sample gaits from softmax(-p/tau) at the checkpoint's tau instead of the argmin "
@@ -68,7 +75,7 @@ def main(argv=None) -> int:
     from wqwarp.play import make_policy_runner
 
     try:
-        runner = make_policy_runner(args.checkpoint, args.preset, args.num_envs, args.device)
+        runner = make_policy_runner(args.checkpoint, args.preset, args.num_envs, args.device, dt=args.dt)
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -78,7 +85,8 @@ def main(argv=None) -> int:
             return 2
         runner.env.cfg.predictor.evaluation_selection = "sample"
     results = []
-    print(f"{runner.preset} checkpoint (iteration {runner.iteration}), {args.num_envs} robots, {args.seconds:g} s")
+    print(f"{runner.preset} checkpoint (iteration {runner.iteration}), {args.num_envs} robots, {args.seconds:g} s, "
+          f"dt {runner.env.cfg.sim.dt:g} s x {runner.env.cfg.sim.decimation}")  # fmt: skip
     print(f"{'task':>6} {'MSE':>8} {'|err|':>8} {'p_cost [W]':>11} {'legs':>7} {'wheels':>7} {'upright':>8}  gaits")
     for t in tasks:
 
@@ -100,6 +108,8 @@ def main(argv=None) -> int:
                     "checkpoint": args.checkpoint,
                     "preset": runner.preset,
                     "iteration": runner.iteration,
+                    "dt": runner.env.cfg.sim.dt,
+                    "decimation": runner.env.cfg.sim.decimation,
                     "command": " ".join(sys.argv),
                     "git": git_state(),
                     "results": results,

@@ -56,9 +56,11 @@ def checkpoint_phase_residual_mode(path: str) -> str:
 
 
 def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, device: str = "cpu",
-                       cfg: EnvConfig | None = None) -> PolicyRunner:  # fmt: skip
-    """Build the environment of ``preset`` (default: the one recorded with the checkpoint) and load the policy and
-    estimator of ``checkpoint``. Raises ValueError for a missing file or another observation/action layout."""
+                       cfg: EnvConfig | None = None, dt: float | None = None) -> PolicyRunner:  # fmt: skip
+    """Build the environment of ``preset`` (default: the one recorded with the checkpoint) and load the policy,
+    estimator and gait selector of ``checkpoint``. ``dt`` [s] changes the physics step and keeps the 50 Hz policy
+    step (decimation = policy step / dt). Raises ValueError for a missing file, another observation/action layout,
+    or a dt that does not divide the policy step."""
     from wqwarp.runner import WqRunner
 
     if not os.path.isfile(checkpoint):
@@ -68,6 +70,12 @@ def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, devic
         cfg = make_env_config(preset, num_envs, device)
         # until the whole configuration round-trips from checkpoints, at least the gait reading must match
         cfg.action.phase_residual_mode = checkpoint_phase_residual_mode(checkpoint)
+    if dt is not None:
+        policy_dt = cfg.sim.dt * cfg.sim.decimation
+        dec = round(policy_dt / dt)
+        if dt <= 0 or dec < 1 or abs(dec * dt - policy_dt) > 1e-9:
+            raise ValueError(f"dt {dt} s does not divide the policy step {policy_dt} s")
+        cfg.sim.dt, cfg.sim.decimation = dt, dec
     env = WheeledGo1Env(cfg)
     env.collect_training_data = False  # playback, evaluation and export: estimator and predictor as saved
     with contextlib.redirect_stdout(io.StringIO()):
