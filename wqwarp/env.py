@@ -1,8 +1,11 @@
 """The residual-RL environment: an rsl-rl ``VecEnv`` of wheeled Go1 robots on the nominal gait.
 
 Lifecycle of :meth:`WheeledGo1Env.step`: actions -> (nominal gait + residuals -> IK -> targets) -> physics
-(decimation x (actuation, power, MuJoCo)) -> rewards (``wqwarp.kernels.rewards``) -> terminations and resets ->
-commands and pushes -> estimator -> observations. Simulator arrays cross to torch zero-copy.
+(decimation x (actuation, power, MuJoCo)) -> rewards (``wqwarp.kernels.rewards``) -> terminations, gait-selector
+bookkeeping and resets -> commands and pushes -> estimator -> observations -> gait selection on o_t
+(``wqwarp.gait_selection``). Nothing learns inside ``step``: with ``collect_training_data`` set the env only stores
+training data for the estimator and the power predictor, which the runner fits. Simulator arrays cross to torch
+zero-copy.
 
 Actor observation o_t (paper, "Observation Space of the Actor"), in this order (:func:`observation_layout`):
     base_ang_vel (3)  base angular velocity, base frame, x0.25 [rad/s]
@@ -17,7 +20,7 @@ Actor observation o_t (paper, "Observation Space of the Actor"), in this order (
 The paper states previous actions of dimension 22 while its action list sums to 20; we use the action size.
 Noise (uniform, ``ObservationConfig``) is added to the sensor part. Critic observation = actor observation plus
 privileged x_t: true base velocity (3, base frame), height, friction, restitution, added mass, wheel contact forces
-(4, /100 N), the current push (2) [m/s], gait id one-hot (3).
+(4, /100 N), the current push (2) [m/s], running gait one-hot (3; zeros without a nominal gait).
 """
 
 from __future__ import annotations
