@@ -1,0 +1,185 @@
+"""The paper's Fig. 5 for a trained checkpoint: one robot through a sequence of commands, with the height of the
+front-right wheel, the requested and running gait, the measured power and the tracked velocity over time.
+
+Usage::
+
+    python tools/gait_sequence.py --checkpoint runs/ours_X/model_1499.pt --json docs/gait_sequence.json \\
+        --png docs/gait_sequence.png [--segments "0.5,0,0:4;0,0.3,0:4;0,0,0.5:4;0,0,0:4"] [--robots 8]
+
+Each segment is ``v_x,v_y,w_z:seconds``. ``--robots`` runs that many robots (no domain randomisation, each with its
+own random spawn yaw) and reports per segment the mean p_cost per joint group, the tracking error and the share of
+each running gait over all of them; the figure shows robot 0. Nothing learns: the estimator and the power predictor
+stay as saved.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+DEFAULT_SEGMENTS = "0.6,0,0:4;0,0.4,0:4;0,0,0.6:4;0,0,0:4;-0.4,0,0:4"
+
+
+def parse_segments(text: str) -> list[tuple[tuple[float, float, float], float]]:
+    """``"vx,vy,wz:s;..."`` -> [((vx, vy, wz), seconds), ...]; ValueError naming the bad segment."""
+    out = []
+    for part in [p.strip() for p in text.split(";") if p.strip()]:
+        try:
+            cmd, sec = part.split(":")
+            v = tuple(float(x) for x in cmd.split(","))
+            s = float(sec)
+        except ValueError:
+            raise ValueError(f"bad segment {part!r}: expected 'vx,vy,wz:seconds'") from None
+        if len(v) != 3 or s <= 0:
+            raise ValueError(f"bad segment {part!r}: expected three velocities and seconds > 0")
+        out.append((v, s))
+    if not out:
+        raise ValueError("no segments given")
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap.add_argument("--checkpoint", required=True, help="model_<it>.pt written by train/ppo_newton.py")
+    ap.add_argument("--preset", default=None, help="preset of the checkpoint (default: from its run's config.json)")
+    ap.add_argument("--segments", default=DEFAULT_SEGMENTS, help=f"command segments (default {DEFAULT_SEGMENTS!r})")
+    ap.add_argument("--robots", type=int, default=8, help="robots run side by side (default 8; robot 0 is drawn)")
+    ap.add_argument("--json", default=None, help="write the time series and per-segment summary here")
+    ap.add_argument("--png", default=None, help="draw the figure here (matplotlib)")
+    args = ap.parse_args(argv)
+    try:
+        segments = parse_segments(args.segments)
+    except ValueError as e:
+        print(f"error: --segments: {e}", file=sys.stderr)
+        return 2
+    if args.robots < 1:
+        print("error: --robots must be >= 1", file=sys.stderr)
+        return 2
+
+    import numpy as np
+    import torch
+    import warp as wp
+
+    wp.config.quiet = True
+    from wqwarp.gaits import GAIT_NAMES
+    from wqwarp.play import make_policy_runner
+    from wqwarp.provenance import git_state
+
+    try:
+        runner = make_policy_runner(args.checkpoint, args.preset, args.robots)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    env = runner.env
+    n = env.num_envs
+    env.cfg.commands.resampling_time = 1e9
+    total = sum(s for _, s in segments)
+    env.max_episode_length = int(np.ceil((total + 1.0) / env.dt))
+    env.push_interval_steps = 0
+    obs = env.reset()
+    fr_wheel = int(env.sim.layout.wheel_body[0])  # body index of the front-right wheel (legs FR, FL, RR, RL)
+    series = {k: [] for k in ("t", "command", "v", "p_cost", "p_cost_legs", "p_cost_wheels", "gait_requested",
+                              "gait_running", "wheel_fr_height")}  # fmt: skip
+    summary = []
+    fell = torch.zeros(n, dtype=torch.bool)
+    k = 0
+    with torch.no_grad():
+        for cmd, sec in segments:
+            c = torch.tensor([cmd] * n, dtype=torch.float32)
+            steps = int(round(sec / env.dt))
+            acc = {"p": 0.0, "legs": 0.0, "wheels": 0.0, "err": 0.0, "count": 0}
+            usage = torch.zeros(len(GAIT_NAMES))
+            for _ in range(steps):
+                env.set_commands(c)
+                obs, _, dones, _ = env.step(runner.policy(obs))
+                fell |= dones.bool().cpu()
+                b = env.base_state()
+                v = torch.stack([b["lin_vel"][:, 0], b["lin_vel"][:, 1], b["ang_vel"][:, 2]], 1).cpu()
+                running = env.active_gait().cpu()
+                usage += torch.bincount(running, minlength=len(GAIT_NAMES)).float()
+                acc["p"] += float(env.tv["p_cost"].mean())
+                acc["legs"] += float(env.tv["p_cost_legs"].mean())
+                acc["wheels"] += float(env.tv["p_cost_wheels"].mean())
+                acc["err"] += float(((v - c) ** 2).sum(1).mean())
+                acc["count"] += 1
+                wheel_z = env.tv["body_q"][0, fr_wheel, 2]  # wheel centre height above the ground [m]
+                series["t"].append(round(k * env.dt, 4))
+                series["command"].append(list(cmd))
+                series["v"].append([round(float(x), 4) for x in v[0]])
+                series["p_cost"].append(round(float(env.tv["p_cost"][0]), 3))
+                series["p_cost_legs"].append(round(float(env.tv["p_cost_legs"][0]), 3))
+                series["p_cost_wheels"].append(round(float(env.tv["p_cost_wheels"][0]), 3))
+                series["gait_requested"].append(GAIT_NAMES[int(env.requested_gait()[0])])
+                series["gait_running"].append(GAIT_NAMES[int(running[0])])
+                series["wheel_fr_height"].append(round(float(wheel_z), 4))
+                k += 1
+            m = acc["count"]
+            summary.append({
+                "command": list(cmd), "seconds": sec, "mean_p_cost": acc["p"] / m, "mean_p_cost_legs": acc["legs"] / m,
+                "mean_p_cost_wheels": acc["wheels"] / m, "mean_sq_velocity_error": acc["err"] / m,
+                "gait_usage": {g: float(usage[i] / usage.sum()) for i, g in enumerate(GAIT_NAMES)},
+            })  # fmt: skip
+    print(f"{runner.preset} checkpoint (iteration {runner.iteration}), {n} robots; fell: {int(fell.sum())}")
+    print(f"{'command':>18} {'p_cost':>7} {'legs':>6} {'wheels':>6} {'sq err':>7}  gaits (share of robot-steps)")
+    for s in summary:
+        gaits = " ".join(f"{g} {100 * v:.0f}%" for g, v in s["gait_usage"].items() if v > 0)
+        print(f"{str(tuple(s['command'])):>18} {s['mean_p_cost']:7.1f} {s['mean_p_cost_legs']:6.1f} "
+              f"{s['mean_p_cost_wheels']:6.1f} {s['mean_sq_velocity_error']:7.3f}  {gaits}")  # fmt: skip
+    out = {"checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration, "robots": n,
+           "fell": int(fell.sum()), "segments": summary, "series_robot0": series, "command": " ".join(sys.argv),
+           "git": git_state()}  # fmt: skip
+    if args.json:
+        tmp = args.json + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(out, f)
+        os.replace(tmp, args.json)
+    if args.png:
+        draw(out, args.png)
+    return 0
+
+
+def draw(out: dict, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from wqwarp.gaits import GAIT_NAMES
+
+    s = out["series_robot0"]
+    t = np.array(s["t"])
+    fig, ax = plt.subplots(4, 1, figsize=(9, 7.5), sharex=True)
+    cmd, v = np.array(s["command"]), np.array(s["v"])
+    for i, (name, col) in enumerate(zip(("$v_x$", "$v_y$", "$\\omega$"), ("C0", "C1", "C2"), strict=True)):
+        ax[0].plot(t, cmd[:, i], "--", color=col, lw=1)
+        ax[0].plot(t, v[:, i], color=col, lw=1, label=name)
+    ax[0].set_ylabel("command / actual")
+    ax[0].legend(loc="upper right", fontsize=8, ncol=3)
+    ax[1].plot(t, s["wheel_fr_height"], color="k", lw=1)
+    ax[1].set_ylabel("FR wheel z [m]")
+    idx = {g: i for i, g in enumerate(GAIT_NAMES)}
+    ax[2].step(t, [idx[g] for g in s["gait_running"]], where="post", label="running")
+    ax[2].step(t, [idx[g] for g in s["gait_requested"]], where="post", ls=":", label="requested")
+    ax[2].set_yticks(range(len(GAIT_NAMES)))
+    ax[2].set_yticklabels(GAIT_NAMES)
+    ax[2].legend(loc="upper right", fontsize=8)
+    ax[3].plot(t, s["p_cost_legs"], lw=1, label="legs")
+    ax[3].plot(t, s["p_cost_wheels"], lw=1, label="wheels")
+    ax[3].set_ylabel("p_cost [W]")
+    ax[3].set_xlabel("time [s]")
+    ax[3].legend(loc="upper right", fontsize=8)
+    fig.suptitle(f"{out['preset']} (iteration {out['iteration']}), robot 0")
+    fig.tight_layout()
+    tmp = path + ".tmp.png"
+    fig.savefig(tmp, dpi=100)
+    os.replace(tmp, path)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
