@@ -60,6 +60,26 @@ def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
     res = json.loads(out_json.read_text())["results"][0]
     assert res["task"] == "vx" and 0.0 <= res["upright"] <= 1.0 and res["mean_p_cost"] > 0
 
+    # The paper's Fig. 5 for the checkpoint: per-segment numbers agree with the recorded time series.
+    seq = tmp_path / "seq.json"
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "gait_sequence.py"), "--checkpoint",
+                        str(log / "model_3.pt"), "--robots", "1", "--segments", "0.5,0,0:0.5;0,0,0.4:0.5",
+                        "--json", str(seq)], capture_output=True, text=True, cwd=ROOT, timeout=600)  # fmt: skip
+    assert r.returncode == 0, r.stderr[-2000:]
+    d = json.loads(seq.read_text())
+    ser = d["series_robot0"]
+    assert len(ser["t"]) == 50 and len(d["segments"]) == 2
+    for k, seg in enumerate(d["segments"]):
+        part = ser["p_cost"][25 * k : 25 * (k + 1)]
+        assert seg["mean_p_cost"] == pytest.approx(sum(part) / 25, rel=1e-3, abs=1e-3)
+        assert sum(seg["gait_usage"].values()) == pytest.approx(1.0)
+        running = ser["gait_running"][25 * k : 25 * (k + 1)]
+        assert seg["gait_usage"]["driving"] == pytest.approx(running.count("driving") / 25)
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "gait_sequence.py"), "--checkpoint",
+                        str(log / "model_3.pt"), "--segments", "0.5,0:1"], capture_output=True, text=True,
+                       cwd=ROOT, timeout=600)  # fmt: skip
+    assert r.returncode == 2 and "bad segment" in r.stderr
+
     # The trained policy plays into a USD rollout (tools/export_usd.py --checkpoint).
     usd = tmp_path / "policy.usda"
     r = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "export_usd.py"), "--out", str(usd),
