@@ -91,7 +91,7 @@ def main(argv=None) -> int:
     for t in tasks:
 
         def show(k, n, t=t):
-            if k == n or k % max(1, n // 20) == 0:
+            if sys.stdout.isatty() and (k == n or k % max(1, n // 20) == 0):
                 print(f"\r  {t}: {100 * k // n:3d} %", end="", flush=True)
 
         r = run_task(runner, t, args.seconds, max_push=args.push, progress=show)

@@ -44,6 +44,11 @@ class EvalResult:
     """Changes of the running gait per robot and minute."""
     falls_within_1s_of_switch: int = 0
     """Trunk-ground contacts within 1 s after a gait switch."""
+    predicted_power: dict | None = None
+    """Predictive selection: the power predictor's mean output per gait over the measured steps [W]."""
+    predicted_power_running: float | None = None
+    """Predictive selection: mean predicted power of the gait running at each measured step [W] (compare with
+    ``mean_p_cost`` over the same robots and steps)."""
 
 
 def spread_commands(task: str, n: int) -> torch.Tensor:
@@ -75,15 +80,25 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     push_steps = int(round(push_interval / env.dt)) if max_push > 0 else 0
     fell = torch.zeros(n, dtype=torch.bool, device=env.device)
     env.gait_selector.log_scalars()  # restart the selector's usage counters
+    predictive = hasattr(env.gait_selector, "predict")
+    num_gaits = env.gait_selector.num_gaits
+    pred_sum = torch.zeros(n, max(num_gaits, 1), device=env.device)
+    pred_run = torch.zeros(n, device=env.device)
     sq, ab, power, legs, wheels, count = (torch.zeros(n, device=env.device) for _ in range(6))
     for k in range(steps):
         if push_steps and k > 0 and k % push_steps == 0:
             env.cfg.domain_rand.push_max_vel = max_push
             env._push_robots()
+        if predictive:
+            p_now = env.gait_selector.predict(obs["policy"])
         obs, _, dones, _ = env.step(runner.policy(obs))
+        running_now = env.active_gait()
         fell |= dones.bool()
         env.set_commands(cmd)  # a reset after a fall resamples; keep the evaluation command
         if k >= settle_steps:
+            if predictive:  # the prediction made from the o_t this step started from
+                pred_sum += p_now
+                pred_run += p_now.gather(1, running_now[:, None]).squeeze(1)
             b = env.base_state()
             actual = b["lin_vel"][:, axis] if axis < 2 else b["ang_vel"][:, 2]
             err = actual - cmd[:, axis]
@@ -100,6 +115,13 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     c = torch.clamp(count, min=1)
     ok = ~fell
     sel = ok if ok.any() else torch.ones_like(ok)
+    predicted = predicted_running = None
+    if predictive:
+        from wqwarp.gaits import GAIT_NAMES
+
+        mean_pred = (pred_sum / c[:, None])[sel].mean(0)
+        predicted = {g: float(mean_pred[i]) for i, g in enumerate(GAIT_NAMES[:num_gaits])}
+        predicted_running = float((pred_run / c)[sel].mean())
     return EvalResult(
         task=task, num_robots=n, seconds=seconds, mse=float((sq / c)[sel].mean()),
         mean_abs_error=float((ab / c)[sel].mean()), mean_p_cost=float((power / c)[sel].mean()),
@@ -107,4 +129,5 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
         upright=float(ok.float().mean()), max_push=max_push, gait_usage=usage or None,
         gait_switches_per_robot_minute=gait.get("Gait/switches_per_robot_minute", 0.0),
         falls_within_1s_of_switch=int(gait.get("Gait/falls_within_1s_of_switch", 0)),
+        predicted_power=predicted, predicted_power_running=predicted_running,
     )  # fmt: skip
