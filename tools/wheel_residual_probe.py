@@ -1,0 +1,113 @@
+"""Where a trained policy's wheel power goes: the same rollout with the policy's wheel residuals, and with them set
+to zero (wheels on the nominal velocities of Eq. 3), at a held forward command.
+
+Usage::
+
+    python tools/wheel_residual_probe.py --checkpoint runs/ours_X/model_1499.pt --vx 0.8 --json docs/probe.json
+
+Per wheel (FR, FL, RR, RL): mean velocity [rad/s], target [rad/s], torque [N m] and the policy's wheel action; per
+joint group: mean p_cost, mechanical and Joule power [W]; the base velocity achieved [m/s] and the share of each
+running gait. A front pair driving (positive torque) while the rear pair brakes (negative torque) at the same
+forward speed is power spent on wheel slip: the robot pays it and gains no speed. Nothing learns.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+
+def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool) -> dict:
+    import numpy as np
+    import torch
+    import warp as wp
+
+    from wqwarp.gaits import GAIT_NAMES
+
+    env = runner.env
+    n = env.num_envs
+    env.cfg.commands.resampling_time = 1e9
+    env.max_episode_length = int(np.ceil((seconds + 1.0) / env.dt))
+    env.push_interval_steps = 0
+    obs = env.reset()
+    cmd = torch.tensor([[vx, 0.0, 0.0]] * n)
+    keys = ("p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs", "p_joule_wheels")
+    acc: dict = {k: [] for k in (*keys, "wheel_qd", "wheel_target", "wheel_torque", "wheel_action", "vx")}
+    usage = torch.zeros(len(GAIT_NAMES))
+    fell = torch.zeros(n, dtype=torch.bool)
+    with torch.no_grad():
+        for k in range(int(round(seconds / env.dt))):
+            env.set_commands(cmd)
+            a = runner.policy(obs).clone()
+            if zero_wheels:
+                a[:, 16:20] = 0.0
+            obs, _, dones, _ = env.step(a)
+            fell |= dones.bool().cpu()
+            if k * env.dt < settle:
+                continue
+            for key in keys:
+                acc[key].append(float(env.tv[key].mean()))
+            acc["wheel_qd"].append(env.tv["actuated_qd"][:, 12:].mean(0).tolist())
+            acc["wheel_target"].append(wp.to_torch(env.sim.wheel_qd_target).mean(0).tolist())
+            acc["wheel_torque"].append(env.tv["joint_torque"][:, 12:].mean(0).tolist())
+            acc["wheel_action"].append(a[:, 16:20].mean(0).tolist())
+            acc["vx"].append(float(env.base_state()["lin_vel"][:, 0].mean()))
+            usage += torch.bincount(env.active_gait().cpu(), minlength=len(GAIT_NAMES)).float()
+    out = {k: np.round(np.mean(np.asarray(v), axis=0), 4).tolist() for k, v in acc.items()}
+    out["gait_usage"] = {g: float(usage[i] / usage.sum()) for i, g in enumerate(GAIT_NAMES)}
+    out["fell"] = int(fell.sum())
+    out["p_cost"] = out["p_cost_legs"] + out["p_cost_wheels"]
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap.add_argument("--checkpoint", required=True, help="model_<it>.pt written by train/ppo_newton.py")
+    ap.add_argument("--preset", default=None, help="preset of the checkpoint (default: from its run's config.json)")
+    ap.add_argument("--vx", type=float, default=0.8, help="held forward command [m/s] (default 0.8)")
+    ap.add_argument("--robots", type=int, default=8, help="robots (default 8; no domain randomisation)")
+    ap.add_argument("--seconds", type=float, default=6.0, help="rollout length [s] (default 6, the first 2 settle)")
+    ap.add_argument("--json", default=None, help="write both rollouts' numbers here")
+    args = ap.parse_args(argv)
+    if args.robots < 1 or args.seconds <= 2.0:
+        print("error: need --robots >= 1 and --seconds > 2 (the settling time)", file=sys.stderr)
+        return 2
+    import warp as wp
+
+    wp.config.quiet = True
+    from wqwarp.play import make_policy_runner
+    from wqwarp.provenance import git_state
+
+    try:
+        runner = make_policy_runner(args.checkpoint, args.preset, args.robots)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    if runner.env.num_actions != 20:
+        print(f"error: {runner.preset} has no wheel residuals (16 joint actions)", file=sys.stderr)
+        return 2
+    res = {}
+    for name, zero in (("policy", False), ("zero_wheel_residuals", True)):
+        res[name] = rollout(runner, args.vx, args.seconds, 2.0, zero)
+        r = res[name]
+        print(f"{name:>21}: v_x {r['vx']:.3f} m/s | p_cost {r['p_cost']:6.1f} W (legs {r['p_cost_legs']:5.1f}, "
+              f"wheels {r['p_cost_wheels']:5.1f}; wheels mech {r['p_mech_wheels']:5.1f}, Joule "
+              f"{r['p_joule_wheels']:5.1f}) | wheel qd {r['wheel_qd']} | torque {r['wheel_torque']}")  # fmt: skip
+    out = {"checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration, "vx": args.vx,
+           "robots": args.robots, "seconds": args.seconds, "settle": 2.0, "wheel_order": ["FR", "FL", "RR", "RL"],
+           "results": res, "command": " ".join(sys.argv), "git": git_state()}  # fmt: skip
+    if args.json:
+        tmp = args.json + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(out, f, indent=2)
+        os.replace(tmp, args.json)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
