@@ -136,6 +136,15 @@ def parse_args(argv=None) -> argparse.Namespace:
         help="predictive presets: seconds a selected gait is held before the next selection (default 1.0, the "
         "prediction horizon)",
     )
+    p.add_argument(
+        "--reward",
+        action="append",
+        default=[],
+        metavar="TERM=WEIGHT",
+        help="override one weight of the paper's Table II, e.g. --reward energy=-1e-4 (repeatable; terms: "
+        "track_vx, track_vy, track_wz, residual, orientation, lin_vel_z, ang_vel_xy, joint_acc, torques, "
+        "action_smoothness, collision, energy)",
+    )
     p.add_argument("--no-export", action="store_true", help="skip the TorchScript / ONNX export at the end")
     return p.parse_args(argv)
 
@@ -250,6 +259,16 @@ def main(argv=None) -> int:
     cfg.estimator.use_true_state = args.true_state
     if args.phase_residual is not None:
         cfg.action.phase_residual_mode = args.phase_residual
+    from wqwarp.config import REWARD_TERMS
+
+    for item in args.reward:
+        term, _, value = item.partition("=")
+        if term not in REWARD_TERMS:
+            fail(f"--reward {item!r}: unknown term {term!r}; terms: {', '.join(REWARD_TERMS)}")
+        try:
+            setattr(cfg.reward, term, float(value))
+        except ValueError:
+            fail(f"--reward {item!r}: the weight must be a number")
     p = cfg.predictor
     if args.temperature is not None:
         p.temperature_start, p.temperature_end = args.temperature
