@@ -356,3 +356,12 @@ def test_auxiliary_learners_stay_identical_across_ranks(tmp_path):
     ref = PowerPredictor(4, 3, (8,))
     w0 = ref.net[0].weight
     assert torch.allclose(r0["end"][4], w0 + 1.5)  # state_dict order: 4 buffers, then net.0.weight
+
+
+def test_a_forced_gait_overrides_the_selection_but_not_the_prediction():
+    sel = _selector(4, temperature_start=1e-6, temperature_end=1e-6)
+    _constant_power(sel, [1.0, 9.0, 5.0])
+    sel.forced_gait = 2
+    sel.select(torch.zeros(4, 2), torch.ones(4, dtype=torch.long))
+    assert (sel.requested == 2).all()
+    assert sel.predict(torch.zeros(1, 2)).argmin().item() == 0

@@ -58,6 +58,13 @@ def main(argv=None) -> int:
         help="predictive presets: sample gaits from softmax(-p/tau) at the checkpoint's tau instead of the argmin "
         "(the default, tau -> 0)",
     )
+    p.add_argument(
+        "--force-gait",
+        default=None,
+        choices=("driving", "trotting", "walking"),
+        help="predictive presets, diagnostics: run this gait instead of the selected one; the predictor's forecast "
+        "for it is reported beside the realised power",
+    )
     p.add_argument("--json", default=None, help="also write the results to this JSON file")
     args = p.parse_args(argv)
     tasks = [t.strip() for t in args.tasks.split(",") if t.strip()]
@@ -84,6 +91,13 @@ def main(argv=None) -> int:
             print(f"error: --sample-gaits needs a predictive preset, not {runner.preset}", file=sys.stderr)
             return 2
         runner.env.cfg.predictor.evaluation_selection = "sample"
+    if args.force_gait:
+        if runner.env.gait_selector.name != "predictive":
+            print(f"error: --force-gait needs a predictive preset, not {runner.preset}", file=sys.stderr)
+            return 2
+        from wqwarp.gaits import gait_index
+
+        runner.env.gait_selector.forced_gait = gait_index(args.force_gait)
     results = []
     print(f"{runner.preset} checkpoint (iteration {runner.iteration}), {args.num_envs} robots, {args.seconds:g} s, "
           f"dt {runner.env.cfg.sim.dt:g} s x {runner.env.cfg.sim.decimation}")  # fmt: skip
@@ -108,6 +122,7 @@ def main(argv=None) -> int:
                     "checkpoint": args.checkpoint,
                     "preset": runner.preset,
                     "iteration": runner.iteration,
+                    "forced_gait": args.force_gait,
                     "dt": runner.env.cfg.sim.dt,
                     "decimation": runner.env.cfg.sim.decimation,
                     "command": " ".join(sys.argv),

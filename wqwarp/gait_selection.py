@@ -306,6 +306,9 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.windows = 0
         self.used_temperature = self.temperature
         """tau of the latest selection (logged for the rollout it belongs to)."""
+        self.forced_gait: int | None = None
+        """Diagnostics only: request this gait instead of selecting (the predictor still predicts; evaluation
+        compares its prediction for the forced gait with the realised power)."""
         self.last_losses: dict[str, float] = {}
 
     @property
@@ -343,7 +346,11 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.prev_active = active.clone()  # resets restart robots in their requested gait
         self.used_temperature = self.temperature
         ids = self.due.nonzero(as_tuple=False).flatten()
-        if len(ids):
+        if len(ids) and self.forced_gait is not None:
+            self.requested[ids] = self.forced_gait
+            self.in_gait[ids] = 0
+            self.due[ids] = False
+        elif len(ids):
             power = self.predictor(obs[ids])
             if self.cfg.power_normalization == "mean":
                 power = power / power.mean(dim=1, keepdim=True).clamp(min=1.0)
