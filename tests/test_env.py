@@ -143,16 +143,67 @@ def test_unknown_preset_is_a_clear_error():
         make_preset("ours_v2")
 
 
-def test_evaluation_uses_the_phase_reading_the_checkpoint_was_trained_with(tmp_path):
-    from wqwarp.play import checkpoint_phase_residual_mode
+@pytest.mark.parametrize("preset", sorted(PRESETS))
+def test_every_config_round_trips_and_a_foreign_one_is_a_clear_error(preset):
+    import json
+
+    from wqwarp.config import env_config_from_dict, to_dict
+
+    cfg = make_preset(preset)
+    cfg.sim.dt, cfg.sim.decimation, cfg.predictor.hidden_dims = 0.001, 20, (32, 16)
+    back = env_config_from_dict(json.loads(json.dumps(to_dict(cfg))))  # as config.json stores it
+    assert back == cfg and isinstance(back.predictor.hidden_dims, tuple)
+    d = to_dict(cfg)
+    d["reward"]["new_term"] = 1.0
+    with pytest.raises(ValueError, match=r"EnvConfig.reward: unknown keys \['new_term'\]"):
+        env_config_from_dict(d)
+    d = to_dict(cfg)
+    del d["action"]["phase_residual_mode"]
+    with pytest.raises(ValueError, match=r"EnvConfig.action: missing keys \['phase_residual_mode'\]"):
+        env_config_from_dict(d)
+
+
+def test_evaluation_builds_the_env_from_the_checkpoints_own_configuration(tmp_path):
+    import contextlib
+    import io
+
+    from wqwarp.config import TrainConfig
+    from wqwarp.play import make_policy_runner
+    from wqwarp.runner import WqRunner
 
     cfg = make_preset("no_predictor")
+    cfg.sim.num_envs, cfg.sim.dt, cfg.sim.decimation = 2, 0.001, 20
     cfg.action.phase_residual_mode = "increment"
-    from wqwarp.config import to_dict
+    cfg.reward.energy = -3e-4
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner = WqRunner(WheeledGo1Env(cfg), TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu")
+    runner.save(str(tmp_path / "model_0.pt"))
+    pr = make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=3)
+    got = pr.env.cfg
+    assert (got.sim.dt, got.sim.decimation, got.action.phase_residual_mode) == (0.001, 20, "increment")
+    assert got.reward.energy == -3e-4 and got.sim.num_envs == 3 and not got.domain_rand.enabled
+    assert cfg.sim.num_envs == 2 and cfg.domain_rand.enabled  # the trained config is not touched
+    pr = make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=1, dt=0.005)
+    assert (pr.env.cfg.sim.dt, pr.env.cfg.sim.decimation) == (0.005, 4)  # a named override keeps 50 Hz
+    with pytest.raises(ValueError, match="not trained as preset 'pmtg'"):
+        make_policy_runner(str(tmp_path / "model_0.pt"), "pmtg", num_envs=1)
+    with pytest.raises(ValueError, match="does not divide"):
+        make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=1, dt=0.003)
 
-    path = tmp_path / "model_1.pt"
-    torch.save({"infos": {"env_cfg": to_dict(cfg)}}, path)
-    assert checkpoint_phase_residual_mode(str(path)) == "increment"
-    torch.save({"infos": {"env_cfg": {"action": {}}}}, path)  # written before the setting existed
-    assert checkpoint_phase_residual_mode(str(path)) == "increment"
-    assert make_preset("no_predictor").action.phase_residual_mode == "offset"  # the default
+
+def test_held_commands_reach_every_observation_also_after_resets():
+    env = _env("no_predictor")
+    cmd = torch.tensor([[0.3, 0.0, 0.0], [0.0, -0.2, 0.0], [0.0, 0.0, 0.5], [0.0, 0.0, 0.0]])
+    env.hold_commands(cmd)
+    env.resample_steps = 3  # resample (and reset robot 0) often
+    scale = torch.tensor([2.0, 2.0, 0.25])
+    obs = env.reset()
+    for k in range(12):
+        if k == 5:
+            env.episode_length_buf[0] = env.max_episode_length - 1  # robot 0 times out and resets
+        obs, *_ = env.step(torch.zeros(N, env.num_actions))
+        seen = decode_observation(obs["policy"], env.num_actions)["command"]
+        assert torch.allclose(seen, cmd * scale), k
+    env.hold_commands(None)
+    env._resample_commands(torch.arange(N))
+    assert not torch.allclose(env.commands, cmd)

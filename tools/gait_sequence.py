@@ -77,10 +77,10 @@ def main(argv=None) -> int:
         return 2
     env = runner.env
     n = env.num_envs
-    env.cfg.commands.resampling_time = 1e9
     total = sum(s for _, s in segments)
     env.max_episode_length = int(np.ceil((total + 1.0) / env.dt))
     env.push_interval_steps = 0
+    env.hold_commands(torch.tensor([segments[0][0]] * n, dtype=torch.float32))
     obs = env.reset()
     fr_wheel = int(env.sim.layout.wheel_body[0])  # body index of the front-right wheel (legs FR, FL, RR, RL)
     series = {k: [] for k in ("t", "command", "v", "p_cost", "p_cost_legs", "p_cost_wheels", "gait_requested",
@@ -94,8 +94,8 @@ def main(argv=None) -> int:
             steps = int(round(sec / env.dt))
             acc = {"p": 0.0, "legs": 0.0, "wheels": 0.0, "err": 0.0, "count": 0}
             usage = torch.zeros(len(GAIT_NAMES))
+            env.hold_commands(c)
             for _ in range(steps):
-                env.set_commands(c)
                 obs, _, dones, _ = env.step(runner.policy(obs))
                 fell |= dones.bool().cpu()
                 b = env.base_state()

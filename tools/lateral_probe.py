@@ -37,17 +37,16 @@ def probe_policy(checkpoint: str, seconds: float) -> dict:
     runner = make_policy_runner(checkpoint, None, num_envs=len(COMMANDS))
     env = runner.env
     env.push_interval_steps = 0
-    obs = env.reset()
     cmd = torch.zeros(len(COMMANDS), 3)
     cmd[:, 1] = torch.tensor(COMMANDS)
-    env.set_commands(cmd)
+    env.hold_commands(cmd)  # also after a reset
+    obs = env.reset()
     vy, actions = [], []
     settle = int(round(2.0 / env.dt))
     with torch.no_grad():
         for k in range(int(round(seconds / env.dt))):
             a = runner.policy(obs)
             obs, _, _, _ = env.step(a)
-            env.set_commands(cmd)  # a reset after a fall resamples; keep the probe's command
             if k >= settle:
                 vy.append(env.base_state()["lin_vel"][:, 1].clone())
                 actions.append(a.clone())

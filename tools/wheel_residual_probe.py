@@ -30,18 +30,17 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
 
     env = runner.env
     n = env.num_envs
-    env.cfg.commands.resampling_time = 1e9
     env.max_episode_length = int(np.ceil((seconds + 1.0) / env.dt))
     env.push_interval_steps = 0
-    obs = env.reset()
     cmd = torch.tensor([[vx, 0.0, 0.0]] * n)
+    env.hold_commands(cmd)
+    obs = env.reset()
     keys = ("p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs", "p_joule_wheels")
     acc: dict = {k: [] for k in (*keys, "wheel_qd", "wheel_target", "wheel_torque", "wheel_action", "vx")}
     usage = torch.zeros(len(GAIT_NAMES))
     fell = torch.zeros(n, dtype=torch.bool)
     with torch.no_grad():
         for k in range(int(round(seconds / env.dt))):
-            env.set_commands(cmd)
             a = runner.policy(obs).clone()
             if zero_wheels:
                 a[:, 16:20] = 0.0

@@ -36,7 +36,8 @@ def main(argv=None) -> int:
         "--preset",
         default=None,
         choices=sorted(PRESETS),
-        help="preset the checkpoint was trained with (default: read from the run's config.json)",
+        help="label of the results; must be the method the checkpoint was trained as (default: the preset in the "
+        "run's config.json). The environment is always built from the configuration stored in the checkpoint",
     )
     p.add_argument(
         "--tasks", default="vx,vy,wz", help=f"comma-separated tasks from {', '.join(TASKS)} (default vx,vy,wz)"
@@ -82,15 +83,14 @@ def main(argv=None) -> int:
     from wqwarp.play import make_policy_runner
 
     try:
-        runner = make_policy_runner(args.checkpoint, args.preset, args.num_envs, args.device, dt=args.dt)
+        runner = make_policy_runner(args.checkpoint, args.preset, args.num_envs, args.device, dt=args.dt,
+                                    evaluation_selection="sample" if args.sample_gaits else None)  # fmt: skip
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    if args.sample_gaits:
-        if runner.env.gait_selector.name != "predictive":
-            print(f"error: --sample-gaits needs a predictive preset, not {runner.preset}", file=sys.stderr)
-            return 2
-        runner.env.cfg.predictor.evaluation_selection = "sample"
+    if args.sample_gaits and runner.env.gait_selector.name != "predictive":
+        print(f"error: --sample-gaits needs a predictive preset, not {runner.preset}", file=sys.stderr)
+        return 2
     if args.force_gait:
         if runner.env.gait_selector.name != "predictive":
             print(f"error: --force-gait needs a predictive preset, not {runner.preset}", file=sys.stderr)

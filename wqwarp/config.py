@@ -340,5 +340,38 @@ def make_preset(name: str) -> EnvConfig:
 
 
 def to_dict(cfg) -> dict:
-    """A plain, JSON-serialisable dict of a config (for logs and checkpoints)."""
+    """A plain, JSON-serialisable dict of a config (for logs and checkpoints); :func:`from_dict` reads it back."""
     return dataclasses.asdict(cfg)
+
+
+def from_dict(cls, data, where: str = ""):
+    """The config dataclass ``cls`` from the dict :func:`to_dict` wrote (nested configs recursively, lists back to
+    tuples). A key that ``cls`` does not have, or a field the dict lacks, is a ValueError naming it and its path:
+    a configuration is read whole or not at all, never completed with today's defaults."""
+    import typing
+
+    where = where or cls.__name__
+    if not isinstance(data, dict):
+        raise ValueError(f"config {where}: expected a mapping, got {type(data).__name__}")
+    names = [f.name for f in dataclasses.fields(cls)]
+    unknown = sorted(set(data) - set(names))
+    missing = [n for n in names if n not in data]
+    if unknown or missing:
+        parts = ([f"unknown keys {unknown}"] if unknown else []) + ([f"missing keys {missing}"] if missing else [])
+        raise ValueError(f"config {where}: {'; '.join(parts)} (written by another version of wqwarp?)")
+    hints = typing.get_type_hints(cls)
+    kw = {}
+    for n in names:
+        t, v = hints[n], data[n]
+        if dataclasses.is_dataclass(t):
+            kw[n] = from_dict(t, v, f"{where}.{n}")
+        elif typing.get_origin(t) is tuple and isinstance(v, list | tuple):
+            kw[n] = tuple(v)
+        else:
+            kw[n] = v
+    return cls(**kw)
+
+
+def env_config_from_dict(data: dict) -> EnvConfig:
+    """:class:`EnvConfig` from a checkpoint's ``infos['env_cfg']`` or ``config.json``'s ``env``."""
+    return from_dict(EnvConfig, data)

@@ -164,6 +164,8 @@ class WheeledGo1Env(VecEnv):
         requested = wp.to_torch(self.nominal.gait_id) if self.nominal is not None else None
         self.gait_selector = make_gait_selector(cfg, requested, GAIT_NAMES, start_gait, self.dt, self.num_obs)
         self._collect = False
+        self.held_commands: torch.Tensor | None = None
+        """Commands held by :meth:`hold_commands` (evaluation), or None for random commands."""
         self.extras: dict = {}
         self._reset_envs(torch.arange(n, device=dev))
         self._obs = self._observe()
@@ -340,7 +342,20 @@ class WheeledGo1Env(VecEnv):
         self._resample_commands(ids)
         wp.copy(self.prev_qd_wp, self.sim.actuated_qd)
 
+    def hold_commands(self, commands: torch.Tensor | None) -> None:
+        """Hold the commands (N, 3) (v_x, v_y, w_z) in the base frame from now on: resets and the periodic
+        resampling write these instead of random ones, so no observation ever carries another command (evaluation).
+        ``None`` returns to random commands."""
+        if commands is None:
+            self.held_commands = None
+            return
+        self.held_commands = torch.as_tensor(commands, dtype=torch.float32, device=self.device).clone()
+        self.commands[:] = self.held_commands
+
     def _resample_commands(self, ids: torch.Tensor) -> None:
+        if self.held_commands is not None:
+            self.commands[ids] = self.held_commands[ids]
+            return
         c = self.cfg.commands
         k = len(ids)
         cmd = torch.stack([self._uniform(c.vx_range, (k,)), self._uniform(c.vy_range, (k,)),
@@ -359,11 +374,14 @@ class WheeledGo1Env(VecEnv):
         self.commands[:] = commands.to(self.device)
 
     def set_command(self, commands) -> None:
-        """Same as :meth:`set_commands` for a NumPy or torch (N, 3) array (used by ``tools/export_usd.py``)."""
-        self.set_commands(torch.as_tensor(commands, dtype=torch.float32))
+        """:meth:`hold_commands` for a NumPy or torch (N, 3) array (``tools/export_usd.py``): held also across
+        resets."""
+        self.hold_commands(torch.as_tensor(commands, dtype=torch.float32))
 
-    def _push_robots(self) -> None:
-        m = self.cfg.domain_rand.push_max_vel
+    def _push_robots(self, max_vel: float | None = None) -> None:
+        """Random velocity impulses up to ``max_vel`` [m/s] (default ``domain_rand.push_max_vel``) along the trunk's
+        x and y axes."""
+        m = self.cfg.domain_rand.push_max_vel if max_vel is None else max_vel
         n = self.num_envs
         dv = self._uniform((-m, m), (n, 2))
         self.push_vel[:] = dv

@@ -68,12 +68,11 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     env = runner.env
     env.collect_training_data = False  # nothing learns during evaluation
     n = env.num_envs
-    env.cfg.commands.resampling_time = 1e9
     env.max_episode_length = int(np.ceil((seconds + 1.0) / env.dt))
     env.push_interval_steps = 0
-    obs = env.reset()
     cmd = spread_commands(task, n).to(env.device)
-    env.set_commands(cmd)
+    env.hold_commands(cmd)  # every observation, also after a reset, carries the task's command
+    obs = env.reset()
     axis = TASKS[task][0]
     steps = int(round(seconds / env.dt))
     settle_steps = int(round(settle / env.dt))
@@ -87,14 +86,12 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     sq, ab, power, legs, wheels, count = (torch.zeros(n, device=env.device) for _ in range(6))
     for k in range(steps):
         if push_steps and k > 0 and k % push_steps == 0:
-            env.cfg.domain_rand.push_max_vel = max_push
-            env._push_robots()
+            env._push_robots(max_push)
         if predictive:
             p_now = env.gait_selector.predict(obs["policy"])
         obs, _, dones, _ = env.step(runner.policy(obs))
         running_now = env.active_gait()
         fell |= dones.bool()
-        env.set_commands(cmd)  # a reset after a fall resamples; keep the evaluation command
         if k >= settle_steps:
             if predictive:  # the prediction made from the o_t this step started from
                 pred_sum += p_now
@@ -112,6 +109,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
             progress(k + 1, steps)
     gait = env.gait_selector.log_scalars()
     usage = {k[len("Gait/usage_"):]: v for k, v in gait.items() if k.startswith("Gait/usage_") and k.count("_") == 1}
+    env.hold_commands(None)
     c = torch.clamp(count, min=1)
     ok = ~fell
     sel = ok if ok.any() else torch.ones_like(ok)

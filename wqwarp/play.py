@@ -1,15 +1,21 @@
-"""Load a trained checkpoint into an environment for evaluation, rollouts and export."""
+"""Load a trained checkpoint into an environment for evaluation, rollouts and export.
+
+The environment is built from the configuration the checkpoint records (``infos['env_cfg']``, read whole by
+``wqwarp.config.from_dict``), never from a preset's today defaults; evaluation changes only what
+:func:`evaluation_config` names, before the env is built.
+"""
 
 from __future__ import annotations
 
 import contextlib
+import copy
 import io
 import os
 from dataclasses import dataclass
 
 import torch
 
-from wqwarp.config import EnvConfig, TrainConfig, make_preset
+from wqwarp.config import EnvConfig, TrainConfig, env_config_from_dict, make_preset
 from wqwarp.env import WheeledGo1Env
 
 
@@ -34,48 +40,78 @@ def checkpoint_preset(path: str) -> str | None:
     return None
 
 
-def make_env_config(preset: str, num_envs: int, device: str, evaluation: bool = True) -> EnvConfig:
-    """The preset's config for ``num_envs`` robots; ``evaluation`` turns domain randomisation and pushes off."""
-    cfg = make_preset(preset)
+def checkpoint_env_config(path: str) -> EnvConfig:
+    """The environment configuration a checkpoint was trained with (its ``infos['env_cfg']``), read whole
+    (``wqwarp.config.from_dict``); ValueError if the file records none or one this version cannot read."""
+    ckpt = torch.load(path, map_location="cpu", weights_only=False)
+    infos = (ckpt.get("infos") or {}) if isinstance(ckpt, dict) else {}
+    if not isinstance(infos, dict) or "env_cfg" not in infos:
+        raise ValueError(f"{path} records no environment configuration (not a wqwarp checkpoint, or an old one)")
+    try:
+        return env_config_from_dict(infos["env_cfg"])
+    except ValueError as e:
+        raise ValueError(f"{path}: cannot read its environment configuration: {e}") from None
+
+
+def evaluation_config(
+    trained: EnvConfig,
+    num_envs: int,
+    device: str = "cpu",
+    dt: float | None = None,
+    domain_randomisation: bool = False,
+    evaluation_selection: str | None = None,
+) -> EnvConfig:
+    """A new config for evaluation from a checkpoint's ``trained`` one, with these named overrides only: robot count,
+    device, domain randomisation and pushes (off by default; the protocol applies its own pushes), the physics step
+    ``dt`` [s] (the 50 Hz policy step is kept: decimation = policy step / dt) and the predictive selection outside
+    training (``argmin`` or ``sample``). ``trained`` is not modified."""
+    cfg = copy.deepcopy(trained)
     cfg.sim.num_envs = num_envs
     cfg.sim.device = device
-    if evaluation:
-        cfg.domain_rand.enabled = False
+    cfg.domain_rand.enabled = domain_randomisation
+    if dt is not None:
+        policy_dt = cfg.sim.dt * cfg.sim.decimation
+        dec = round(policy_dt / dt) if dt > 0 else 0
+        if dt <= 0 or dec < 1 or abs(dec * dt - policy_dt) > 1e-9:
+            raise ValueError(f"dt {dt} s does not divide the policy step {policy_dt} s")
+        cfg.sim.dt, cfg.sim.decimation = dt, dec
+    if evaluation_selection is not None:
+        if evaluation_selection not in ("argmin", "sample"):
+            raise ValueError(f"evaluation_selection must be argmin or sample, got {evaluation_selection!r}")
+        cfg.predictor.evaluation_selection = evaluation_selection
     return cfg
 
 
-def checkpoint_phase_residual_mode(path: str) -> str:
-    """The phase-residual reading a checkpoint was trained with (its saved ``env_cfg``). Checkpoints written before
-    the reading became a setting were trained with ``increment``."""
-    import torch
-
-    ckpt = torch.load(path, map_location="cpu", weights_only=False)
-    infos = ckpt.get("infos") or {} if isinstance(ckpt, dict) else {}
-    env_cfg = infos.get("env_cfg", {}) if isinstance(infos, dict) else {}
-    return env_cfg.get("action", {}).get("phase_residual_mode", "increment")
+def _check_preset(preset: str, cfg: EnvConfig, path: str) -> None:
+    """A preset named on the command line must be the method the checkpoint was trained as."""
+    ref = make_preset(preset)
+    keys = (("gait.selection", ref.gait.selection, cfg.gait.selection),
+            ("action.use_nominal_legs", ref.action.use_nominal_legs, cfg.action.use_nominal_legs),
+            ("action.use_nominal_wheels", ref.action.use_nominal_wheels, cfg.action.use_nominal_wheels))  # fmt: skip
+    diff = [f"{k} {mine!r} (preset {preset}: {theirs!r})" for k, theirs, mine in keys if theirs != mine]
+    if diff:
+        raise ValueError(f"{path} was not trained as preset {preset!r}: {', '.join(diff)}")
 
 
 def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, device: str = "cpu",
-                       cfg: EnvConfig | None = None, dt: float | None = None) -> PolicyRunner:  # fmt: skip
-    """Build the environment of ``preset`` (default: the one recorded with the checkpoint) and load the policy,
-    estimator and gait selector of ``checkpoint``. ``dt`` [s] changes the physics step and keeps the 50 Hz policy
-    step (decimation = policy step / dt). Raises ValueError for a missing file, another observation/action layout,
-    or a dt that does not divide the policy step."""
+                       cfg: EnvConfig | None = None, dt: float | None = None,
+                       evaluation_selection: str | None = None) -> PolicyRunner:  # fmt: skip
+    """Build the environment from the configuration stored in ``checkpoint`` (with :func:`evaluation_config`'s named
+    overrides; ``cfg`` replaces it entirely) and load the policy, estimator and gait selector. ``preset`` is the
+    label of the results; if given it must match how the checkpoint was trained. Raises ValueError for a missing
+    file, a checkpoint without a readable configuration, another observation/action layout, a wrong preset, or a
+    dt that does not divide the policy step."""
     from wqwarp.runner import WqRunner
 
     if not os.path.isfile(checkpoint):
         raise ValueError(f"no such checkpoint: {checkpoint}")
-    preset = preset or checkpoint_preset(checkpoint) or "no_predictor"
+    recorded = checkpoint_preset(checkpoint)
     if cfg is None:
-        cfg = make_env_config(preset, num_envs, device)
-        # until the whole configuration round-trips from checkpoints, at least the gait reading must match
-        cfg.action.phase_residual_mode = checkpoint_phase_residual_mode(checkpoint)
-    if dt is not None:
-        policy_dt = cfg.sim.dt * cfg.sim.decimation
-        dec = round(policy_dt / dt)
-        if dt <= 0 or dec < 1 or abs(dec * dt - policy_dt) > 1e-9:
-            raise ValueError(f"dt {dt} s does not divide the policy step {policy_dt} s")
-        cfg.sim.dt, cfg.sim.decimation = dt, dec
+        trained = checkpoint_env_config(checkpoint)
+        if preset is not None:
+            _check_preset(preset, trained, checkpoint)
+        cfg = evaluation_config(trained, num_envs, device, dt=dt, evaluation_selection=evaluation_selection)
+    preset = preset or recorded or "unknown"
     env = WheeledGo1Env(cfg)
     env.collect_training_data = False  # playback, evaluation and export: estimator and predictor as saved
     with contextlib.redirect_stdout(io.StringIO()):
