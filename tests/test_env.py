@@ -158,8 +158,22 @@ def test_every_config_round_trips_and_a_foreign_one_is_a_clear_error(preset):
     with pytest.raises(ValueError, match=r"EnvConfig.reward: unknown keys \['new_term'\]"):
         env_config_from_dict(d)
     d = to_dict(cfg)
-    del d["action"]["phase_residual_mode"]
-    with pytest.raises(ValueError, match=r"EnvConfig.action: missing keys \['phase_residual_mode'\]"):
+    del d["sim"]["leg_kp"]
+    with pytest.raises(ValueError, match=r"EnvConfig.sim: missing keys \['leg_kp'\]"):
+        env_config_from_dict(d)
+
+
+def test_settings_added_later_are_filled_with_the_old_behaviour_and_reported():
+    from wqwarp.config import env_config_from_dict, to_dict
+
+    d = to_dict(make_preset("no_predictor"))
+    del d["action"]["phase_residual_mode"], d["predictor"]  # a checkpoint from before both settings
+    notes: list[str] = []
+    cfg = env_config_from_dict(d, notes)
+    assert cfg.action.phase_residual_mode == "increment" and len(notes) == 2
+    d = to_dict(make_preset("ours"))
+    del d["predictor"]  # a predictive run must have its own predictor settings
+    with pytest.raises(ValueError, match="missing keys \\['predictor'\\]"):
         env_config_from_dict(d)
 
 

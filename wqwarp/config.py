@@ -372,6 +372,33 @@ def from_dict(cls, data, where: str = ""):
     return cls(**kw)
 
 
-def env_config_from_dict(data: dict) -> EnvConfig:
-    """:class:`EnvConfig` from a checkpoint's ``infos['env_cfg']`` or ``config.json``'s ``env``."""
+MIGRATIONS: tuple[tuple[str, object, str], ...] = (
+    ("action.phase_residual_mode", "increment", "the only reading before the setting existed (issue 8)"),
+    ("predictor.power_normalization", "watts", "the literal formula, the only one before the setting existed"),
+)
+"""Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
+checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""
+
+
+def env_config_from_dict(data: dict, migrated: list[str] | None = None) -> EnvConfig:
+    """:class:`EnvConfig` from a checkpoint's ``infos['env_cfg']`` or ``config.json``'s ``env``.
+
+    Settings listed in :data:`MIGRATIONS` are filled with the behaviour of the code that wrote the checkpoint; a
+    checkpoint of a non-predictive preset written before the predictor existed gets the (never read) predictor
+    defaults. Each fill is appended to ``migrated`` as ``"path = value (why)"``."""
+    import copy
+
+    data = copy.deepcopy(data)
+    notes = migrated if migrated is not None else []
+    if "predictor" not in data and data.get("gait", {}).get("selection") != "predictive":
+        data["predictor"] = dataclasses.asdict(PredictorConfig())
+        notes.append("predictor = defaults (this preset never reads them; written before the predictor existed)")
+    for path, value, why in MIGRATIONS:
+        head, _, key = path.rpartition(".")
+        node = data
+        for part in head.split("."):
+            node = node.get(part) if isinstance(node, dict) else None
+        if isinstance(node, dict) and key not in node:
+            node[key] = value
+            notes.append(f"{path} = {value!r} ({why})")
     return from_dict(EnvConfig, data)

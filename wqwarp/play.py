@@ -11,6 +11,7 @@ import contextlib
 import copy
 import io
 import os
+import sys
 from dataclasses import dataclass
 
 import torch
@@ -47,10 +48,14 @@ def checkpoint_env_config(path: str) -> EnvConfig:
     infos = (ckpt.get("infos") or {}) if isinstance(ckpt, dict) else {}
     if not isinstance(infos, dict) or "env_cfg" not in infos:
         raise ValueError(f"{path} records no environment configuration (not a wqwarp checkpoint, or an old one)")
+    migrated: list[str] = []
     try:
-        return env_config_from_dict(infos["env_cfg"])
+        cfg = env_config_from_dict(infos["env_cfg"], migrated)
     except ValueError as e:
         raise ValueError(f"{path}: cannot read its environment configuration: {e}") from None
+    for note in migrated:
+        print(f"note: {os.path.basename(path)} predates a setting: {note}", file=sys.stderr)
+    return cfg
 
 
 def evaluation_config(
