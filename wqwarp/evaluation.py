@@ -44,6 +44,12 @@ class EvalResult:
     """Changes of the running gait per robot and minute."""
     falls_within_1s_of_switch: int = 0
     """Trunk-ground contacts within 1 s after a gait switch."""
+    mse_axes: list | None = None
+    """Mean squared error of each axis (v_x, v_y, w_z) against its command (0 off the task's axis)."""
+    mean_p_mech: float = 0.0
+    """Mean positive mechanical power sum max(tau qd, 0) over the 16 joints [W] (``wqwarp.kernels.power``)."""
+    mean_p_joule: float = 0.0
+    """Mean electrical power of the Joule model sum max(0.3 tau^2 + tau qd, 0) over the 16 motors [W]."""
     predicted_power: dict | None = None
     """Predictive selection: the power predictor's mean output per gait over the measured steps [W]."""
     predicted_power_running: float | None = None
@@ -83,6 +89,8 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     num_gaits = env.gait_selector.num_gaits
     pred_sum = torch.zeros(n, max(num_gaits, 1), device=env.device)
     pred_run = torch.zeros(n, device=env.device)
+    sq_axes = torch.zeros(n, 3, device=env.device)
+    mech, joule = torch.zeros(n, device=env.device), torch.zeros(n, device=env.device)
     sq, ab, power, legs, wheels, count = (torch.zeros(n, device=env.device) for _ in range(6))
     for k in range(steps):
         if push_steps and k > 0 and k % push_steps == 0:
@@ -99,6 +107,10 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
             b = env.base_state()
             actual = b["lin_vel"][:, axis] if axis < 2 else b["ang_vel"][:, 2]
             err = actual - cmd[:, axis]
+            all_axes = torch.stack([b["lin_vel"][:, 0], b["lin_vel"][:, 1], b["ang_vel"][:, 2]], 1) - cmd
+            sq_axes += all_axes**2
+            mech += env.tv["p_mech_legs"] + env.tv["p_mech_wheels"]
+            joule += env.tv["p_joule_legs"] + env.tv["p_joule_wheels"]
             sq += err**2
             ab += err.abs()
             power += env.tv["p_cost"]
@@ -128,4 +140,6 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
         gait_switches_per_robot_minute=gait.get("Gait/switches_per_robot_minute", 0.0),
         falls_within_1s_of_switch=int(gait.get("Gait/falls_within_1s_of_switch", 0)),
         predicted_power=predicted, predicted_power_running=predicted_running,
+        mse_axes=[float(x) for x in (sq_axes / c[:, None])[sel].mean(0)],
+        mean_p_mech=float((mech / c)[sel].mean()), mean_p_joule=float((joule / c)[sel].mean()),
     )  # fmt: skip
