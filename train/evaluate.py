@@ -6,11 +6,12 @@ Examples::
     python train/evaluate.py --checkpoint CKPT --tasks vx,vy,wz --push 0.5 --num-envs 256 --json eval.json
 
 Tracking tasks set one command axis, spread evenly over the paper's range (v_x in [-1, 1] m/s, v_y in [-0.7, 0.7]
-m/s, w in [-0.7, 0.7] rad/s), the others zero; errors and power are averaged after a 2 s settling time over robots
-that stayed upright. ``--push V`` adds random pushes up to V m/s every 15 s (Table III). With a predictive preset
-(ours, no_wheel_vel) each robot runs the argmin of its predicted gait powers (tau -> 0), reselected every decision
-interval, unless ``--sample-gaits``; the share of each running gait is reported per task. Nothing learns: the
-estimator and the power predictor stay as saved in the checkpoint.
+m/s, w in [-0.7, 0.7] rad/s), the others zero; errors and power are averaged after a 2 s settling time over all
+robots (a robot that falls is reset and keeps counting; falls are reported beside). ``--push V`` adds random
+pushes up to V m/s every 15 s (Table III). With a predictive preset (ours, no_wheel_vel) each robot runs the argmin
+of its predicted gait powers (tau -> 0), reselected every decision interval, unless ``--sample-gaits``; the share of
+each running gait is reported per task. Nothing learns: the estimator and the power predictor stay as saved in the
+checkpoint.
 """
 
 from __future__ import annotations

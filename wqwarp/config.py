@@ -75,12 +75,15 @@ class RewardConfig:
 class CommandConfig:
     """Velocity commands (v_x, v_y, w_z) in the base frame, resampled during an episode."""
 
-    vx_range: tuple[float, float] = (-1.0, 1.0)
-    """[m/s] covers the paper's evaluation range v_x in [-1, 1]."""
+    vx_range: tuple[float, float] = (-1.5, 1.5)
+    """[m/s] the authors' training range (xu-yang16/wheeled-quadruped-sim2sim,
+    sim/policy_manager/policy_config/my_legged_robot_config.py lines 37-39: lin_vel_x [-1.5, 1.5]); it covers the
+    paper's evaluation ranges v_x in [-1, 1] (tracking) and [-1, 1] (pushes, Table III)."""
     vy_range: tuple[float, float] = (-0.7, 0.7)
-    """[m/s] paper: v_y in [-0.7, 0.7]."""
-    wz_range: tuple[float, float] = (-0.7, 0.7)
-    """[rad/s] paper: w in [-0.7, 0.7]."""
+    """[m/s] authors' config: lin_vel_y [-0.7, 0.7]; the paper's tracking range. Table III's [-1, 1] lies outside."""
+    wz_range: tuple[float, float] = (-1.0, 1.0)
+    """[rad/s] authors' config: ang_vel_yaw [-1, 1]; covers the paper's [-0.7, 0.7] (tracking) and [-1, 1]
+    (pushes)."""
     resampling_time: float = 10.0
     """Seconds between command resamples within an episode [s]."""
     single_axis_prob: float = 0.5

@@ -3,7 +3,9 @@
 Tracking and energy: one command axis at a time (v_x in [-1, 1] m/s, v_y in [-0.7, 0.7] m/s, w in [-0.7, 0.7]
 rad/s), the others zero; robots get commands spread evenly over the range and hold them for the whole run. We
 report per task the mean squared and mean absolute tracking error (after a settling time), the mean p_cost
-(sum |tau| |qd| over 16 joints) [W], and the share of robots that never touched the ground with the trunk.
+(sum |tau| |qd| over 16 joints) [W], and the share of robots that never touched the ground with the trunk. Every
+metric is over all robots: a robot that falls is reset where it is and keeps counting, and the number of falls is
+reported beside the metrics.
 
 Push recovery (Table III): random velocity impulses up to ``max_push`` along the trunk's x and y every
 ``push_interval`` seconds; a robot recovers if its trunk never touches the ground.
@@ -37,6 +39,8 @@ class EvalResult:
     """Mean p_cost of the 4 wheels [W]."""
     upright: float
     """Share of robots whose trunk never touched the ground [-]."""
+    falls: int = 0
+    """Trunk-ground contacts over the run (a robot that falls is reset where it is and keeps counting)."""
     max_push: float = 0.0
     gait_usage: dict | None = None
     """Share of robot-steps in each running gait (all robots, settling included) [-]."""
@@ -84,6 +88,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     settle_steps = int(round(settle / env.dt))
     push_steps = int(round(push_interval / env.dt)) if max_push > 0 else 0
     fell = torch.zeros(n, dtype=torch.bool, device=env.device)
+    falls = 0
     env.gait_selector.log_scalars()  # restart the selector's usage counters
     predictive = hasattr(env.gait_selector, "predict")
     num_gaits = env.gait_selector.num_gaits
@@ -100,6 +105,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
         obs, _, dones, _ = env.step(runner.policy(obs))
         running_now = env.active_gait()
         fell |= dones.bool()
+        falls += int(dones.sum())
         if k >= settle_steps:
             if predictive:  # the prediction made from the o_t this step started from
                 pred_sum += p_now
@@ -124,7 +130,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     env.hold_commands(None)
     c = torch.clamp(count, min=1)
     ok = ~fell
-    sel = ok if ok.any() else torch.ones_like(ok)
+    sel = torch.ones_like(ok)  # every metric over all robots; falls are reported beside them
     predicted = predicted_running = None
     if predictive:
         from wqwarp.gaits import GAIT_NAMES
@@ -136,7 +142,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
         task=task, num_robots=n, seconds=seconds, mse=float((sq / c)[sel].mean()),
         mean_abs_error=float((ab / c)[sel].mean()), mean_p_cost=float((power / c)[sel].mean()),
         mean_p_cost_legs=float((legs / c)[sel].mean()), mean_p_cost_wheels=float((wheels / c)[sel].mean()),
-        upright=float(ok.float().mean()), max_push=max_push, gait_usage=usage or None,
+        upright=float(ok.float().mean()), falls=falls, max_push=max_push, gait_usage=usage or None,
         gait_switches_per_robot_minute=gait.get("Gait/switches_per_robot_minute", 0.0),
         falls_within_1s_of_switch=int(gait.get("Gait/falls_within_1s_of_switch", 0)),
         predicted_power=predicted, predicted_power_running=predicted_running,
