@@ -197,8 +197,14 @@ def test_evaluation_builds_the_env_from_the_checkpoints_own_configuration(tmp_pa
     assert (got.sim.dt, got.sim.decimation, got.action.phase_residual_mode) == (0.001, 20, "increment")
     assert got.reward.energy == -3e-4 and got.sim.num_envs == 3 and not got.domain_rand.enabled
     assert cfg.sim.num_envs == 2 and cfg.domain_rand.enabled  # the trained config is not touched
-    pr = make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=1, dt=0.005)
+    pr = make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=2, dt=0.005)
     assert (pr.env.cfg.sim.dt, pr.env.cfg.sim.decimation) == (0.005, 4)  # a named override keeps 50 Hz
+    from wqwarp.evaluation import PUSH_TASKS, run_task
+
+    res = run_task(pr, "vy", seconds=2.2, settle=0.2)
+    assert res.command_range == [-0.7, 0.7] and not res.outside_training_range
+    res = run_task(pr, "vy", seconds=2.2, settle=0.2, command_range=PUSH_TASKS["vy"][1])
+    assert res.command_range == [-1.0, 1.0] and res.outside_training_range  # Table III's v_y leaves +-0.7
     with pytest.raises(ValueError, match="not trained as preset 'pmtg'"):
         make_policy_runner(str(tmp_path / "model_0.pt"), "pmtg", num_envs=1)
     with pytest.raises(ValueError, match="does not divide"):
@@ -221,3 +227,16 @@ def test_held_commands_reach_every_observation_also_after_resets():
     env.hold_commands(None)
     env._resample_commands(torch.arange(N))
     assert not torch.allclose(env.commands, cmd)
+
+
+def test_pushes_are_velocity_impulses_along_the_trunk_axes():
+    env = _env("no_predictor")  # robots spawn with random yaw
+    before = env.tv["joint_qd"][:, :2].clone()
+    q = env.tv["joint_q"][:, 3:7]
+    yaw = torch.atan2(2 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2))
+    env._push_robots(0.5)
+    dv = env.push_vel  # the impulse in the trunk frame
+    assert dv.abs().max() <= 0.5 and dv.abs().max() > 0.0
+    c, s = torch.cos(yaw), torch.sin(yaw)
+    world = torch.stack([c * dv[:, 0] - s * dv[:, 1], s * dv[:, 0] + c * dv[:, 1]], 1)
+    assert torch.allclose(env.tv["joint_qd"][:, :2] - before, world, atol=1e-5)

@@ -44,8 +44,19 @@ def main(argv=None) -> int:
         "--tasks", default="vx,vy,wz", help=f"comma-separated tasks from {', '.join(TASKS)} (default vx,vy,wz)"
     )
     p.add_argument("--num-envs", type=int, default=100, help="robots per task (default 100; the paper uses 1000)")
-    p.add_argument("--seconds", type=float, default=20.0, help="length of each rollout [s] (default 20)")
+    p.add_argument("--seconds", type=float, default=None, help="length of each rollout [s] (default 20; 60 push)")
     p.add_argument("--push", type=float, default=0.0, help="max push velocity [m/s]; 0 disables pushes (default)")
+    p.add_argument(
+        "--protocol",
+        choices=("tracking", "push"),
+        default="tracking",
+        help="tracking (default): --tasks over the paper's tracking ranges, --push optional. push: Table III - tasks "
+        "stand, vx, vy, wz with commands in [-1, 1], random pushes up to each of --push-levels m/s every 15 s along "
+        "the trunk's x and y; a robot recovers if its trunk never touches the ground (default 60 s per run)",
+    )
+    p.add_argument(
+        "--push-levels", default="0.5,0.7", help="push protocol: comma-separated max push velocities [m/s]"
+    )
     p.add_argument("--device", default="cpu", help="cpu or cuda:N (default cpu)")
     p.add_argument(
         "--dt",
@@ -69,6 +80,19 @@ def main(argv=None) -> int:
     )
     p.add_argument("--json", default=None, help="also write the results to this JSON file")
     args = p.parse_args(argv)
+    push_protocol = args.protocol == "push"
+    if args.seconds is None:
+        args.seconds = 60.0 if push_protocol else 20.0
+    if push_protocol:
+        try:
+            levels = [float(x) for x in args.push_levels.split(",") if x.strip()]
+        except ValueError:
+            levels = []
+        if not levels or min(levels) <= 0:
+            print(f"error: --push-levels {args.push_levels!r}: need positive velocities, e.g. 0.5,0.7", file=sys.stderr)
+            return 2
+        if args.tasks == "vx,vy,wz":  # the tracking default: use Table III's tasks
+            args.tasks = "stand,vx,vy,wz"
     tasks = [t.strip() for t in args.tasks.split(",") if t.strip()]
     bad = [t for t in tasks if t not in TASKS]
     if bad or not tasks:
@@ -80,7 +104,7 @@ def main(argv=None) -> int:
     import warp as wp
 
     wp.config.quiet = True
-    from wqwarp.evaluation import run_task
+    from wqwarp.evaluation import PUSH_TASKS, run_task
     from wqwarp.play import make_policy_runner
 
     try:
@@ -102,20 +126,30 @@ def main(argv=None) -> int:
     results = []
     print(f"{runner.preset} checkpoint (iteration {runner.iteration}), {args.num_envs} robots, {args.seconds:g} s, "
           f"dt {runner.env.cfg.sim.dt:g} s x {runner.env.cfg.sim.decimation}")  # fmt: skip
-    print(f"{'task':>6} {'MSE':>8} {'|err|':>8} {'p_cost [W]':>11} {'legs':>7} {'wheels':>7} {'upright':>8}  gaits")
-    for t in tasks:
+    print(f"{'task':>9} {'MSE':>8} {'|err|':>8} {'p_cost [W]':>11} {'legs':>7} {'wheels':>7} {'upright':>8}  gaits")
+    runs = [(lvl, t) for lvl in levels for t in tasks] if push_protocol else [(args.push, t) for t in tasks]
+    for push, t in runs:
 
         def show(k, n, t=t):
             if sys.stdout.isatty() and (k == n or k % max(1, n // 20) == 0):
                 print(f"\r  {t}: {100 * k // n:3d} %", end="", flush=True)
 
-        r = run_task(runner, t, args.seconds, max_push=args.push, progress=show)
+        rng = PUSH_TASKS[t][1] if push_protocol else None
+        r = run_task(runner, t, args.seconds, max_push=push, progress=show, command_range=rng)
         results.append(dataclasses.asdict(r))
+        label = f"{t}@{push:g}" if push_protocol else t
         print(
-            f"\r{t:>6} {r.mse:8.4f} {r.mean_abs_error:8.3f} {r.mean_p_cost:11.1f} {r.mean_p_cost_legs:7.1f} "
+            f"\r{label:>9} {r.mse:8.4f} {r.mean_abs_error:8.3f} {r.mean_p_cost:11.1f} {r.mean_p_cost_legs:7.1f} "
             f"{r.mean_p_cost_wheels:7.1f} {100 * r.upright:7.1f}%  "
             + " ".join(f"{g} {100 * v:.0f}%" for g, v in (r.gait_usage or {}).items() if v > 0)
+            + ("  (commands outside the training range)" if r.outside_training_range else "")
         )
+    if push_protocol:
+        print("\nTable III: share of robots that recovered (trunk never touched the ground) [%]")
+        print(f"{'max push':>9} " + " ".join(f"{t:>8}" for t in tasks))
+        for lvl in levels:
+            row = [r for r in results if r["max_push"] == lvl]
+            print(f"{lvl:>7g} m/s " + " ".join(f"{100 * r['upright']:8.1f}" for r in row))
     if args.json:
         with open(args.json + ".tmp", "w", encoding="utf-8") as f:
             json.dump(
@@ -123,6 +157,7 @@ def main(argv=None) -> int:
                     "checkpoint": args.checkpoint,
                     "preset": runner.preset,
                     "iteration": runner.iteration,
+                    "protocol": args.protocol,
                     "forced_gait": args.force_gait,
                     "dt": runner.env.cfg.sim.dt,
                     "decimation": runner.env.cfg.sim.decimation,

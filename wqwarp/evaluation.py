@@ -19,7 +19,11 @@ import numpy as np
 import torch
 
 TASKS = {"vx": (0, (-1.0, 1.0)), "vy": (1, (-0.7, 0.7)), "wz": (2, (-0.7, 0.7)), "stand": (0, (0.0, 0.0))}
-"""Task -> (command axis, range) as evaluated in the paper."""
+"""Task -> (command axis, range) of the paper's tracking evaluation (Sec. IV-A)."""
+
+PUSH_TASKS = {"stand": (0, (0.0, 0.0)), "vx": (0, (-1.0, 1.0)), "vy": (1, (-1.0, 1.0)), "wz": (2, (-1.0, 1.0))}
+"""Task -> (command axis, range) of the paper's push-recovery evaluation (Table III: all commands zero, and v_x, v_y,
+w each in [-1, 1])."""
 
 
 @dataclass
@@ -42,6 +46,10 @@ class EvalResult:
     falls: int = 0
     """Trunk-ground contacts over the run (a robot that falls is reset where it is and keeps counting)."""
     max_push: float = 0.0
+    command_range: list | None = None
+    """[lo, hi] of the task's command axis."""
+    outside_training_range: bool = False
+    """True when the task's commands leave the range the policy was trained on (the env's ``commands`` config)."""
     gait_usage: dict | None = None
     """Share of robot-steps in each running gait (all robots, settling included) [-]."""
     gait_switches_per_robot_minute: float = 0.0
@@ -61,9 +69,11 @@ class EvalResult:
     ``mean_p_cost`` over the same robots and steps)."""
 
 
-def spread_commands(task: str, n: int) -> torch.Tensor:
-    """(n, 3) commands with only the task's axis set, evenly spread over its range."""
+def spread_commands(task: str, n: int, command_range: tuple[float, float] | None = None) -> torch.Tensor:
+    """(n, 3) commands with only the task's axis set, evenly spread over its range (default: :data:`TASKS`)."""
     axis, (lo, hi) = TASKS[task]
+    if command_range is not None:
+        lo, hi = command_range
     cmd = torch.zeros(n, 3)
     cmd[:, axis] = torch.linspace(lo, hi, n) if n > 1 else torch.tensor([(lo + hi) / 2])
     return cmd
@@ -71,19 +81,25 @@ def spread_commands(task: str, n: int) -> torch.Tensor:
 
 @torch.no_grad()
 def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: float = 0.0,
-             push_interval: float = 15.0, progress=None) -> EvalResult:  # fmt: skip
-    """Roll out ``runner.policy`` (``wqwarp.play.PolicyRunner``) on ``task`` for ``seconds``."""
+             push_interval: float = 15.0, progress=None,
+             command_range: tuple[float, float] | None = None) -> EvalResult:  # fmt: skip
+    """Roll out ``runner.policy`` (``wqwarp.play.PolicyRunner``) on ``task`` for ``seconds``; ``command_range``
+    replaces the task's range (e.g. :data:`PUSH_TASKS`)."""
     if task not in TASKS:
         raise ValueError(f"unknown task {task!r}; choose from {', '.join(TASKS)}")
     env = runner.env
+    axis, rng = TASKS[task]
+    rng = tuple(command_range) if command_range is not None else rng
+    c = env.cfg.commands
+    train_rng = (c.vx_range, c.vy_range, c.wz_range)[axis]
+    outside = rng[0] < train_rng[0] - 1e-9 or rng[1] > train_rng[1] + 1e-9
     env.collect_training_data = False  # nothing learns during evaluation
     n = env.num_envs
     env.max_episode_length = int(np.ceil((seconds + 1.0) / env.dt))
     env.push_interval_steps = 0
-    cmd = spread_commands(task, n).to(env.device)
+    cmd = spread_commands(task, n, rng).to(env.device)
     env.hold_commands(cmd)  # every observation, also after a reset, carries the task's command
     obs = env.reset()
-    axis = TASKS[task][0]
     steps = int(round(seconds / env.dt))
     settle_steps = int(round(settle / env.dt))
     push_steps = int(round(push_interval / env.dt)) if max_push > 0 else 0
@@ -142,7 +158,8 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
         task=task, num_robots=n, seconds=seconds, mse=float((sq / c)[sel].mean()),
         mean_abs_error=float((ab / c)[sel].mean()), mean_p_cost=float((power / c)[sel].mean()),
         mean_p_cost_legs=float((legs / c)[sel].mean()), mean_p_cost_wheels=float((wheels / c)[sel].mean()),
-        upright=float(ok.float().mean()), falls=falls, max_push=max_push, gait_usage=usage or None,
+        upright=float(ok.float().mean()), falls=falls, max_push=max_push, command_range=list(rng),
+        outside_training_range=outside, gait_usage=usage or None,
         gait_switches_per_robot_minute=gait.get("Gait/switches_per_robot_minute", 0.0),
         falls_within_1s_of_switch=int(gait.get("Gait/falls_within_1s_of_switch", 0)),
         predicted_power=predicted, predicted_power_running=predicted_running,
