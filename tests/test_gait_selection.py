@@ -79,8 +79,8 @@ def test_selector_holds_a_gait_for_the_decision_interval_and_labels_one_window_p
         if k < 2:
             assert not sel.due.any()
             sel.select(obs, running)
-    assert sel.due.all() and sel.buf_n + sel.hold_n == 2
-    labels = sorted(torch.cat([sel.buf_y[: sel.buf_n], sel.hold_y[: sel.hold_n]]).tolist())
+    assert sel.due.all() and sel.replay.n + sel.holdout.n == 2
+    labels = sorted(torch.cat([sel.replay.y[: sel.replay.n], sel.holdout.y[: sel.holdout.n]]).tolist())
     assert labels == [pytest.approx(1.0), pytest.approx(5.0)]
     # A reset makes a robot due at once and drops its open window.
     sel.select(obs, running)
@@ -299,7 +299,7 @@ def test_estimator_and_predictor_do_not_change_during_evaluation_playback_or_exp
     export_onboard_policy(runner2, str(tmp_path / "export"))
     after = params()
     assert all(torch.equal(a, b) for a, b in zip(before, after, strict=True))
-    assert pr.env.estimator_trainer._inputs == [] and pr.env.gait_selector.buf_n == 0
+    assert pr.env.estimator_trainer._inputs == [] and pr.env.gait_selector.replay.n == 0
 
 
 def test_selection_switches_only_when_no_leg_of_the_running_gait_swings():

@@ -39,11 +39,9 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import os
 import shlex
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -275,18 +273,6 @@ def table(report: dict) -> str:
     return "\n".join(lines)
 
 
-def _write_json_atomic(path: str, data: dict) -> None:
-    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(data, f, indent=2)
-            f.write("\n")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-
-
 def _parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
@@ -335,7 +321,7 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    from wqwarp.provenance import git_state
+    from wqwarp.provenance import git_state, write_result_json
     from wqwarp.sim.backend import SimConfig
 
     sim_config = {k: v for k, v in dataclasses.asdict(SimConfig()).items() if k not in ("num_envs", "dt", "decimation")}
@@ -352,7 +338,7 @@ def main(argv: list[str] | None = None) -> int:
         "sim_config": sim_config,
         "scenarios": audit(scenarios, settings, args.warmup, args.seconds, args.num_envs, args.quiet),
     }
-    _write_json_atomic(path, report)
+    write_result_json(path, report)
     print(table(report))
     if not args.quiet:
         print(f"wrote {path}", file=sys.stderr)

@@ -12,7 +12,6 @@ Each value is the mean over the last ``--last`` logged iterations (the scalars a
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 
@@ -52,18 +51,13 @@ def main(argv=None) -> int:
     if not rep["scalars"]:
         print(f"error: {args.run!r} holds no Gait/, Predictor/ or Metrics/ scalars", file=sys.stderr)
         return 2
-    from wqwarp.provenance import git_state
-
-    rep["command"] = " ".join(sys.argv)
-    rep["git"] = git_state()
     print(f"{args.run}: mean over the last {args.last} iterations (up to iteration {rep.get('last_step')})")
     for k, v in rep["scalars"].items():
         print(f"  {k:<45} {v:10.4f}")
     if args.json:
-        tmp = args.json + ".tmp"
-        with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(rep, f, indent=2)
-        os.replace(tmp, args.json)
+        from wqwarp.provenance import write_result_json
+
+        write_result_json(args.json, rep)
     return 0
 
 

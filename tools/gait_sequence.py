@@ -15,7 +15,6 @@ stay as saved.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 
@@ -61,14 +60,14 @@ def main(argv=None) -> int:
         print("error: --robots must be >= 1", file=sys.stderr)
         return 2
 
-    import numpy as np
     import torch
     import warp as wp
 
     wp.config.quiet = True
+    from wqwarp.evaluation import start_rollout
     from wqwarp.gaits import GAIT_NAMES
     from wqwarp.play import make_policy_runner
-    from wqwarp.provenance import git_state
+    from wqwarp.provenance import write_result_json
 
     try:
         runner = make_policy_runner(args.checkpoint, args.preset, args.robots)
@@ -78,10 +77,7 @@ def main(argv=None) -> int:
     env = runner.env
     n = env.num_envs
     total = sum(s for _, s in segments)
-    env.max_episode_length = int(np.ceil((total + 1.0) / env.dt))
-    env.push_interval_steps = 0
-    env.hold_commands(torch.tensor([segments[0][0]] * n, dtype=torch.float32))
-    obs = env.reset()
+    obs = start_rollout(env, torch.tensor([segments[0][0]] * n, dtype=torch.float32), total)
     fr_wheel = int(env.sim.layout.wheel_body[0])  # body index of the front-right wheel (legs FR, FL, RR, RL)
     series = {k: [] for k in ("t", "command", "v", "p_cost", "p_cost_legs", "p_cost_wheels", "gait_requested",
                               "gait_running", "wheel_fr_height")}  # fmt: skip
@@ -131,13 +127,9 @@ def main(argv=None) -> int:
         print(f"{str(tuple(s['command'])):>18} {s['mean_p_cost']:7.1f} {s['mean_p_cost_legs']:6.1f} "
               f"{s['mean_p_cost_wheels']:6.1f} {s['mean_sq_velocity_error']:7.3f}  {gaits}")  # fmt: skip
     out = {"checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration, "robots": n,
-           "fell": int(fell.sum()), "segments": summary, "series_robot0": series, "command": " ".join(sys.argv),
-           "git": git_state()}  # fmt: skip
+           "fell": int(fell.sum()), "segments": summary, "series_robot0": series}  # fmt: skip
     if args.json:
-        tmp = args.json + ".tmp"
-        with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(out, f)
-        os.replace(tmp, args.json)
+        write_result_json(args.json, out, indent=None)  # the time series: compact
     if args.png:
         draw(out, args.png)
     return 0

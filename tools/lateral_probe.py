@@ -32,15 +32,14 @@ COMMANDS = (-0.7, -0.5, -0.3, -0.1, 0.1, 0.3, 0.5, 0.7)
 def probe_policy(checkpoint: str, seconds: float) -> dict:
     import torch
 
+    from wqwarp.evaluation import start_rollout
     from wqwarp.play import make_policy_runner
 
     runner = make_policy_runner(checkpoint, None, num_envs=len(COMMANDS))
     env = runner.env
-    env.push_interval_steps = 0
     cmd = torch.zeros(len(COMMANDS), 3)
     cmd[:, 1] = torch.tensor(COMMANDS)
-    env.hold_commands(cmd)  # also after a reset
-    obs = env.reset()
+    obs = start_rollout(env, cmd, seconds)  # commands held, also after a reset
     vy, actions = [], []
     settle = int(round(2.0 / env.dt))
     with torch.no_grad():

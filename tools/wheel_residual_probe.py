@@ -14,7 +14,6 @@ forward speed is power spent on wheel slip: the robot pays it and gains no speed
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 
@@ -26,15 +25,13 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
     import torch
     import warp as wp
 
+    from wqwarp.evaluation import start_rollout
     from wqwarp.gaits import GAIT_NAMES
 
     env = runner.env
     n = env.num_envs
-    env.max_episode_length = int(np.ceil((seconds + 1.0) / env.dt))
-    env.push_interval_steps = 0
     cmd = torch.tensor([[vx, 0.0, 0.0]] * n)
-    env.hold_commands(cmd)
-    obs = env.reset()
+    obs = start_rollout(env, cmd, seconds)
     keys = ("p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs", "p_joule_wheels")
     acc: dict = {k: [] for k in (*keys, "wheel_qd", "wheel_target", "wheel_torque", "wheel_action", "vx")}
     usage = torch.zeros(len(GAIT_NAMES))
@@ -80,7 +77,7 @@ def main(argv=None) -> int:
 
     wp.config.quiet = True
     from wqwarp.play import make_policy_runner
-    from wqwarp.provenance import git_state
+    from wqwarp.provenance import write_result_json
 
     try:
         runner = make_policy_runner(args.checkpoint, args.preset, args.robots)
@@ -99,12 +96,9 @@ def main(argv=None) -> int:
               f"{r['p_joule_wheels']:5.1f}) | wheel qd {r['wheel_qd']} | torque {r['wheel_torque']}")  # fmt: skip
     out = {"checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration, "vx": args.vx,
            "robots": args.robots, "seconds": args.seconds, "settle": 2.0, "wheel_order": ["FR", "FL", "RR", "RL"],
-           "results": res, "command": " ".join(sys.argv), "git": git_state()}  # fmt: skip
+           "results": res}  # fmt: skip
     if args.json:
-        tmp = args.json + ".tmp"
-        with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(out, f, indent=2)
-        os.replace(tmp, args.json)
+        write_result_json(args.json, out)
     return 0
 
 

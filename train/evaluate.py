@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import os
 import sys
 
@@ -28,7 +27,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 def main(argv=None) -> int:
     from wqwarp.config import PRESETS
     from wqwarp.evaluation import TASKS
-    from wqwarp.provenance import git_state
+    from wqwarp.provenance import write_result_json
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
@@ -151,24 +150,11 @@ def main(argv=None) -> int:
             row = [r for r in results if r["max_push"] == lvl]
             print(f"{lvl:>7g} m/s " + " ".join(f"{100 * r['upright']:8.1f}" for r in row))
     if args.json:
-        with open(args.json + ".tmp", "w", encoding="utf-8") as f:
-            json.dump(
-                {
-                    "checkpoint": args.checkpoint,
-                    "preset": runner.preset,
-                    "iteration": runner.iteration,
-                    "protocol": args.protocol,
-                    "forced_gait": args.force_gait,
-                    "dt": runner.env.cfg.sim.dt,
-                    "decimation": runner.env.cfg.sim.decimation,
-                    "command": " ".join(sys.argv),
-                    "git": git_state(),
-                    "results": results,
-                },
-                f,
-                indent=2,
-            )
-        os.replace(args.json + ".tmp", args.json)
+        write_result_json(args.json, {
+            "checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration,
+            "protocol": args.protocol, "forced_gait": args.force_gait, "dt": runner.env.cfg.sim.dt,
+            "decimation": runner.env.cfg.sim.decimation, "results": results,
+        })  # fmt: skip
     return 0
 
 

@@ -188,6 +188,8 @@ class Progress:
     def line(self, it: int, ep: dict, collect: float, learn: float) -> None:
         import statistics
 
+        from wqwarp.gait_selection import usage_from_scalars
+
         done = it + 1 - self.start
         frac = (it + 1) / max(self.total, 1)
         elapsed = time.time() - self.t0
@@ -208,9 +210,9 @@ class Progress:
                   f"reward {m['mean_reward']:7.2f} | err vx {m['vx_error']:.2f} vy {m['vy_error']:.2f} "
                   f"wz {m['wz_error']:.2f} | power {m['p_cost']:6.1f} W (legs {m['p_cost_legs']:5.1f}, wheels "
                   f"{m['p_cost_wheels']:5.1f}) | {sps:6.0f} steps/s")  # fmt: skip
-        names = [k[len("Gait/usage_"):] for k in gait if k.startswith("Gait/usage_") and k.count("_") == 1]
-        if len(names) > 1 or "Gait/temperature" in gait:
-            shares = " ".join(f"{n[:5]} {100 * gait['Gait/usage_' + n]:3.0f}%" for n in names)
+        usage = usage_from_scalars(gait)
+        if usage:
+            shares = " ".join(f"{n[:5]} {100 * v:3.0f}%" for n, v in usage.items())
             status += f" | gaits {shares}"
             if "Gait/temperature" in gait:
                 status += f" tau {gait['Gait/temperature']:.2g}"

@@ -202,12 +202,8 @@ class WheeledGo1Env(VecEnv):
 
     @collect_training_data.setter
     def collect_training_data(self, value: bool) -> None:
-        turned_on = bool(value) and not self._collect
         self._collect = bool(value)
-        if hasattr(self.gait_selector, "training"):
-            self.gait_selector.training = self._collect
-            if turned_on:
-                self.gait_selector.due[:] = True  # selections made outside training are redone at the next step
+        self.gait_selector.set_training(self._collect)
         if not self._collect:
             self.estimator_trainer.clear()
 

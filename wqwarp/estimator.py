@@ -12,18 +12,23 @@ import torch
 from torch import nn
 
 
+def mlp(input_dim: int, hidden_dims: tuple[int, ...], output_dim: int) -> nn.Sequential:
+    """Linear + ELU per hidden layer, then a linear output (the estimator's and the power predictor's network)."""
+    layers: list[nn.Module] = []
+    d = input_dim
+    for h in hidden_dims:
+        layers += [nn.Linear(d, h), nn.ELU()]
+        d = h
+    layers.append(nn.Linear(d, output_dim))
+    return nn.Sequential(*layers)
+
+
 class StateEstimator(nn.Module):
     """MLP from a flattened history (B, H * D) to (v_x [m/s], v_y [m/s], h [m])."""
 
     def __init__(self, input_dim: int, hidden_dims: tuple[int, ...] = (128, 64), output_dim: int = 3):
         super().__init__()
-        layers: list[nn.Module] = []
-        d = input_dim
-        for h in hidden_dims:
-            layers += [nn.Linear(d, h), nn.ELU()]
-            d = h
-        layers.append(nn.Linear(d, output_dim))
-        self.net = nn.Sequential(*layers)
+        self.net = mlp(input_dim, hidden_dims, output_dim)
         self.input_dim = input_dim
 
     def forward(self, history: torch.Tensor) -> torch.Tensor:

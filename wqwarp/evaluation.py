@@ -18,6 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from wqwarp.gait_selection import usage_from_scalars
+
 TASKS = {"vx": (0, (-1.0, 1.0)), "vy": (1, (-0.7, 0.7)), "wz": (2, (-0.7, 0.7)), "stand": (0, (0.0, 0.0))}
 """Task -> (command axis, range) of the paper's tracking evaluation (Sec. IV-A)."""
 
@@ -79,6 +81,17 @@ def spread_commands(task: str, n: int, command_range: tuple[float, float] | None
     return cmd
 
 
+def start_rollout(env, commands: torch.Tensor, seconds: float):
+    """Prepare ``env`` for a ``seconds``-long evaluation rollout and reset it: no time-outs within it, no random
+    pushes (the protocol applies its own), ``commands`` (N, 3) held across resets, nothing learning. Returns the
+    first observations."""
+    env.collect_training_data = False
+    env.max_episode_length = int(np.ceil((seconds + 1.0) / env.dt))
+    env.push_interval_steps = 0
+    env.hold_commands(commands)
+    return env.reset()
+
+
 @torch.no_grad()
 def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: float = 0.0,
              push_interval: float = 15.0, progress=None,
@@ -93,13 +106,9 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     c = env.cfg.commands
     train_rng = (c.vx_range, c.vy_range, c.wz_range)[axis]
     outside = rng[0] < train_rng[0] - 1e-9 or rng[1] > train_rng[1] + 1e-9
-    env.collect_training_data = False  # nothing learns during evaluation
     n = env.num_envs
-    env.max_episode_length = int(np.ceil((seconds + 1.0) / env.dt))
-    env.push_interval_steps = 0
     cmd = spread_commands(task, n, rng).to(env.device)
-    env.hold_commands(cmd)  # every observation, also after a reset, carries the task's command
-    obs = env.reset()
+    obs = start_rollout(env, cmd, seconds)  # every observation, also after a reset, carries the task's command
     steps = int(round(seconds / env.dt))
     settle_steps = int(round(settle / env.dt))
     push_steps = int(round(push_interval / env.dt)) if max_push > 0 else 0
@@ -142,7 +151,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
         if progress is not None:
             progress(k + 1, steps)
     gait = env.gait_selector.log_scalars()
-    usage = {k[len("Gait/usage_"):]: v for k, v in gait.items() if k.startswith("Gait/usage_") and k.count("_") == 1}
+    usage = usage_from_scalars(gait)
     env.hold_commands(None)
     c = torch.clamp(count, min=1)
     ok = ~fell

@@ -34,6 +34,8 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
+from wqwarp.estimator import mlp
+
 COMMAND_TYPES: tuple[str, ...] = ("forward", "lateral", "yaw", "mixed", "zero")
 """Command types of the usage logs: only v_x, only v_y, only w_z non-zero; several; none."""
 
@@ -41,6 +43,12 @@ COMMAND_ZERO: float = 0.05
 """|command| below which an axis counts as zero for the usage logs [m/s or rad/s]."""
 
 SHAPES: tuple[str, ...] = ("exponential", "linear", "cosine")
+
+
+def usage_from_scalars(scalars: dict[str, float]) -> dict[str, float]:
+    """gait -> share of robot-steps from the ``Gait/usage_<gait>`` entries of :meth:`GaitSelector.log_scalars`
+    (the per-command-type entries ``Gait/usage_<gait>_<type>`` are left out)."""
+    return {k[len("Gait/usage_") :]: v for k, v in scalars.items() if k.startswith("Gait/usage_") and k.count("_") == 1}
 
 
 def command_type(commands: torch.Tensor) -> torch.Tensor:
@@ -97,13 +105,7 @@ class PowerPredictor(nn.Module):
 
     def __init__(self, obs_dim: int, num_gaits: int, hidden_dims: tuple[int, ...] = (128, 64)):
         super().__init__()
-        layers: list[nn.Module] = []
-        d = obs_dim
-        for h in hidden_dims:
-            layers += [nn.Linear(d, h), nn.ELU()]
-            d = h
-        layers.append(nn.Linear(d, num_gaits))
-        self.net = nn.Sequential(*layers)
+        self.net = mlp(obs_dim, hidden_dims, num_gaits)
         self.register_buffer("obs_mean", torch.zeros(obs_dim))
         self.register_buffer("obs_std", torch.ones(obs_dim))
         self.register_buffer("target_mean", torch.zeros(num_gaits))
@@ -158,6 +160,28 @@ class WindowLabeler:
         return self.obs[done].clone(), self.gait[done].clone(), self.sum[done] / self.horizon
 
 
+class WindowRing:
+    """Ring buffer of the most recent labelled windows: o_t (cap, D), gait (cap,), mean p_cost (cap,) [W]."""
+
+    def __init__(self, capacity: int, obs_dim: int, device):
+        self.obs = torch.zeros(capacity, obs_dim, device=device)
+        self.gait = torch.zeros(capacity, dtype=torch.long, device=device)
+        self.y = torch.zeros(capacity, device=device)
+        self.n = 0
+        """Windows held (at most the capacity)."""
+        self.i = 0
+        """Next slot to write."""
+
+    def put(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor) -> None:
+        cap, m = len(self.y), len(y)
+        if m > cap:
+            obs, gait, y, m = obs[-cap:], gait[-cap:], y[-cap:], cap
+        pos = (self.i + torch.arange(m, device=self.y.device)) % cap
+        self.obs[pos], self.gait[pos], self.y[pos] = obs, gait, y
+        self.i = (self.i + m) % cap
+        self.n = min(self.n + m, cap)
+
+
 # --- selectors -------------------------------------------------------------------------------------------------------
 class GaitSelector:
     """Interface of the gait selectors; the base class is the ``none`` selector (no nominal gait)."""
@@ -178,6 +202,9 @@ class GaitSelector:
     def fit(self) -> dict[str, float]:
         """Learn from the data recorded since the last call (runner, after each PPO update); returns losses."""
         return {}
+
+    def set_training(self, training: bool) -> None:
+        """Training (the runner collects): record windows and sample at the schedule's tau; else evaluation."""
 
     def set_iteration(self, iteration: int) -> None:
         """The PPO iteration the coming rollout belongs to (moves the temperature schedule)."""
@@ -208,9 +235,9 @@ class FixedGaitSelector(GaitSelector):
         self.requested[:] = gait
         dev = requested.device
         self.usage = torch.zeros(self.num_gaits, len(COMMAND_TYPES), device=dev)
-        self.switches = 0
-        self.falls_after_switch = 0
-        self.falls = 0
+        self.events = torch.zeros(3, device=dev)
+        """Switches, falls, falls within 1 s of a switch since the last log (a tensor: no host sync per step)."""
+        self.one_second = max(1, int(round(1.0 / policy_dt)))
         self.since_switch = torch.full((len(requested),), 10**9, dtype=torch.long, device=dev)
         self.last_active: torch.Tensor | None = None
 
@@ -220,11 +247,10 @@ class FixedGaitSelector(GaitSelector):
         self.usage.index_put_((active, ctype), torch.ones_like(p_cost), accumulate=True)
         if self.last_active is not None:
             switched = active != self.last_active
-            self.switches += int(switched.sum())
+            self.events[0] += switched.sum()
             self.since_switch = torch.where(switched, torch.zeros_like(self.since_switch), self.since_switch + 1)
-        horizon = int(round(1.0 / self.dt))
-        self.falls += int(died.sum())
-        self.falls_after_switch += int((died & (self.since_switch < horizon)).sum())
+        self.events[1] += died.sum()
+        self.events[2] += (died & (self.since_switch < self.one_second)).sum()
         self.last_active = active.clone()
 
     def on_reset(self, ids: torch.Tensor) -> None:
@@ -238,9 +264,10 @@ class FixedGaitSelector(GaitSelector):
             return {}
         out = {}
         robot_seconds = total * self.dt
-        out["Gait/switches_per_robot_minute"] = 60.0 * self.switches / robot_seconds
-        out["Gait/falls_within_1s_of_switch"] = float(self.falls_after_switch)
-        out["Gait/falls"] = float(self.falls)
+        switches, falls, falls_after_switch = self.events.tolist()
+        out["Gait/switches_per_robot_minute"] = 60.0 * switches / robot_seconds
+        out["Gait/falls_within_1s_of_switch"] = falls_after_switch
+        out["Gait/falls"] = falls
         for g, name in enumerate(self.gait_names):
             out[f"Gait/usage_{name}"] = float(self.usage[g].sum()) / total
             for c, ctype in enumerate(COMMAND_TYPES):
@@ -248,13 +275,8 @@ class FixedGaitSelector(GaitSelector):
                 if col > 0.0:
                     out[f"Gait/usage_{name}_{ctype}"] = float(self.usage[g, c]) / col
         self.usage.zero_()
-        self.switches = self.falls_after_switch = self.falls = 0
+        self.events.zero_()
         return out
-
-    def usage_shares(self) -> dict[str, float]:
-        """Share of robot-steps in each running gait since the last log (console line)."""
-        total = float(self.usage.sum())
-        return {n: float(self.usage[g].sum()) / total for g, n in enumerate(self.gait_names)} if total else {}
 
 
 class PredictiveGaitSelector(FixedGaitSelector):
@@ -290,19 +312,11 @@ class PredictiveGaitSelector(FixedGaitSelector):
         """Full policy steps run in the requested gait since it took effect (or since the last selection)."""
         self.due = torch.ones(n, dtype=torch.bool, device=dev)
         self.prev_active = requested.long().clone()
-        # Replay buffer (ring) and held-out windows.
         cap = max(1, cfg.buffer_size)
-        self.buf_obs = torch.zeros(cap, obs_dim, device=dev)
-        self.buf_gait = torch.zeros(cap, dtype=torch.long, device=dev)
-        self.buf_y = torch.zeros(cap, device=dev)
-        self.buf_n = 0
-        self.buf_i = 0
-        hcap = max(1, int(cap * cfg.holdout_fraction))
-        self.hold_obs = torch.zeros(hcap, obs_dim, device=dev)
-        self.hold_gait = torch.zeros(hcap, dtype=torch.long, device=dev)
-        self.hold_y = torch.zeros(hcap, device=dev)
-        self.hold_n = 0
-        self.hold_i = 0
+        self.replay = WindowRing(cap, obs_dim, dev)
+        """Training windows (replay buffer)."""
+        self.holdout = WindowRing(max(1, int(cap * cfg.holdout_fraction)), obs_dim, dev)
+        """Held-out windows: never trained on, they give the relative error per gait."""
         self.windows = 0
         self.used_temperature = self.temperature
         """tau of the latest selection (logged for the rollout it belongs to)."""
@@ -320,6 +334,11 @@ class PredictiveGaitSelector(FixedGaitSelector):
 
     def set_iteration(self, iteration: int) -> None:
         self.iteration = int(iteration)
+
+    def set_training(self, training: bool) -> None:
+        if training and not self.training:
+            self.due[:] = True  # selections made outside training are redone at the next step
+        self.training = training
 
     # --- env hooks ---------------------------------------------------------------------------------------------------
     def record_step(self, p_cost, active, commands, reset, died) -> None:
@@ -371,26 +390,20 @@ class PredictiveGaitSelector(FixedGaitSelector):
     def _store(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor) -> None:
         """Add completed windows: every ``1/holdout_fraction``-th window goes to the held-out set."""
         every = int(round(1.0 / self.cfg.holdout_fraction)) if self.cfg.holdout_fraction > 0 else 0
-        for k in range(len(y)):
-            self.windows += 1
-            if every and self.windows % every == 0:
-                i = self.hold_i
-                self.hold_obs[i], self.hold_gait[i], self.hold_y[i] = obs[k], gait[k], y[k]
-                self.hold_i = (i + 1) % len(self.hold_y)
-                self.hold_n = min(self.hold_n + 1, len(self.hold_y))
-            else:
-                i = self.buf_i
-                self.buf_obs[i], self.buf_gait[i], self.buf_y[i] = obs[k], gait[k], y[k]
-                self.buf_i = (i + 1) % len(self.buf_y)
-                self.buf_n = min(self.buf_n + 1, len(self.buf_y))
+        number = self.windows + 1 + torch.arange(len(y), device=y.device)
+        self.windows += len(y)
+        held = (number % every == 0) if every else torch.zeros_like(number, dtype=torch.bool)
+        self.holdout.put(obs[held], gait[held], y[held])
+        self.replay.put(obs[~held], gait[~held], y[~held])
 
     def add_windows(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor) -> None:
         """Add labelled windows directly (tests, offline data)."""
         self._store(obs, gait.long(), y)
 
     def _update_normalization(self) -> None:
-        n = self.buf_n
-        x, g, y = self.buf_obs[:n], self.buf_gait[:n], self.buf_y[:n]
+        r = self.replay
+        n = r.n
+        x, g, y = r.obs[:n], r.gait[:n], r.y[:n]
         p = self.predictor
         p.obs_mean.copy_(x.mean(0))
         p.obs_std.copy_(x.std(0, unbiased=False).clamp(min=1e-3) if n > 1 else torch.ones_like(p.obs_std))
@@ -402,16 +415,16 @@ class PredictiveGaitSelector(FixedGaitSelector):
 
     def fit(self) -> dict[str, float]:
         """Masked regression on the replay buffer: only the output of the gait that ran is trained."""
-        if self.buf_n < self.cfg.batch_size // 4:
+        r = self.replay
+        if r.n < self.cfg.batch_size // 4:
             return {}
         cfg, p = self.cfg, self.predictor
         with torch.inference_mode(False), torch.enable_grad():
             self._update_normalization()
             losses = []
             for _ in range(cfg.updates_per_iteration):
-                idx = torch.randint(0, self.buf_n, (min(cfg.batch_size, self.buf_n),), generator=self.gen,
-                                    device=self.buf_y.device)  # fmt: skip
-                x, g, y = self.buf_obs[idx].clone(), self.buf_gait[idx].clone(), self.buf_y[idx].clone()
+                idx = torch.randint(0, r.n, (min(cfg.batch_size, r.n),), generator=self.gen, device=r.y.device)
+                x, g, y = r.obs[idx].clone(), r.gait[idx].clone(), r.y[idx].clone()
                 pred = p.normalized(x).gather(1, g[:, None]).squeeze(1)
                 target = (y - p.target_mean[g]) / p.target_std[g]
                 loss = torch.mean((pred - target) ** 2)
@@ -428,14 +441,15 @@ class PredictiveGaitSelector(FixedGaitSelector):
     def holdout_errors(self) -> dict[str, float]:
         """Relative error per gait on held-out windows: mean |p_est - p| / mean p (never trained on)."""
         out = {}
-        n = self.hold_n
+        h = self.holdout
+        n = h.n
         if n == 0:
             return out
-        pred = self.predictor(self.hold_obs[:n]).gather(1, self.hold_gait[:n, None]).squeeze(1)
+        pred = self.predictor(h.obs[:n]).gather(1, h.gait[:n, None]).squeeze(1)
         for k, name in enumerate(self.gait_names):
-            m = self.hold_gait[:n] == k
+            m = h.gait[:n] == k
             if m.any():
-                y = self.hold_y[:n][m]
+                y = h.y[:n][m]
                 out[f"rel_error_{name}"] = float((pred[m] - y).abs().mean() / y.abs().mean().clamp(min=1e-6))
         return out
 
