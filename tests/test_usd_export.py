@@ -7,7 +7,6 @@ import importlib.util
 import os
 import subprocess
 import sys
-import types
 
 import numpy as np
 import pytest
@@ -180,65 +179,45 @@ def test_bad_input_exits_2_without_a_file(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["cmd.txt"]
 
 
-def test_checkpoint_without_play_module_exits_2(tool, tmp_path, monkeypatch, capsys):
-    ckpt = tmp_path / "model.pt"
-    ckpt.write_bytes(b"not a checkpoint")
-    monkeypatch.setitem(sys.modules, "wqwarp.play", None)  # import fails as if the module did not exist
-    assert tool.main(["--out", str(tmp_path / "p.usdc"), "--checkpoint", str(ckpt), "--seconds", "0.1"]) == 2
-    assert "wqwarp.play" in capsys.readouterr().err
-    assert sorted(os.listdir(tmp_path)) == ["model.pt"]
+@pytest.fixture(scope="module")
+def checkpoint(tmp_path_factory) -> str:
+    """An untrained 'ours' checkpoint (configuration, policy, estimator, predictor), as train/ppo_newton.py saves."""
+    import contextlib
+    import io
+
+    from wqwarp.config import TrainConfig, make_preset
+    from wqwarp.env import WheeledGo1Env
+    from wqwarp.runner import WqRunner
+
+    cfg = make_preset("ours")
+    cfg.sim.num_envs = 1
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner = WqRunner(WheeledGo1Env(cfg), TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu")
+    path = str(tmp_path_factory.mktemp("ckpt") / "model_0.pt")
+    runner.save(path)
+    return path
 
 
-def test_checkpoint_seam_with_a_stand_in_runner(tool, tmp_path, monkeypatch, capsys):
-    """The contract the checkpoint branch expects of wqwarp.play.make_policy_runner, with a stand-in runner whose
-    'policy' outputs nothing and whose env plays the nominal gait."""
-    import warp as wp
-
-    from wqwarp.nominal import NominalGait
-    from wqwarp.sim.backend import SimConfig, Simulator
-
-    class Env:
-        def __init__(self, n, device):
-            self.sim = Simulator(SimConfig(num_envs=n, device=device))
-            self.nominal = NominalGait(n, device)
-            self.commands = []
-
-        def reset(self):
-            self.nominal.reset(np.arange(self.sim.num_envs), self.nominal.gait_ids("trotting"))
-            return np.zeros((self.sim.num_envs, 3), np.float32), {}
-
-        def set_command(self, command):
-            self.nominal.command.assign(np.asarray(command, np.float32))
-            self.commands.append(np.asarray(command))
-
-        def step(self, actions):
-            assert actions.shape == (self.sim.num_envs, 16)
-            self.nominal.step(self.sim.actuated_q[:, :12], self.sim.wheel_contact, self.sim.policy_dt)
-            wp.copy(self.sim.leg_q_target, self.nominal.leg_joint_target)
-            wp.copy(self.sim.wheel_qd_target, self.nominal.wheel_velocity)
-            self.sim.step()
-            return self.sim.joint_qd.numpy()[:, 0:3], 0.0, None, {}
-
-    def make_policy_runner(checkpoint, preset, num_envs, device):
-        if preset == "wrong":
-            raise ValueError("observation size 57 != 61 in the checkpoint")
-        env = Env(num_envs, device)
-        return types.SimpleNamespace(env=env, policy=lambda obs: np.zeros((obs.shape[0], 16), np.float32))
-
-    monkeypatch.setitem(sys.modules, "wqwarp.play", types.SimpleNamespace(make_policy_runner=make_policy_runner))
-    ckpt = tmp_path / "model.pt"
-    ckpt.write_bytes(b"weights")
+def test_a_checkpoint_is_played_with_its_commands_held(tool, checkpoint, tmp_path, capsys):
     out = tmp_path / "p.usda"
-    base = ["--out", str(out), "--checkpoint", str(ckpt), "--num-envs", "1", "--seconds", "0.2"]
-    assert tool.main([*base, "--preset", "wrong"]) == 2
-    assert "observation size" in capsys.readouterr().err and not out.exists()
-    assert tool.main([*base, "--preset", "ours", "--command", "0.4,0,0"]) == 0
+    base = ["--out", str(out), "--checkpoint", checkpoint, "--num-envs", "2", "--seconds", "0.4", "--fps", "25"]
+    assert tool.main([*base, "--preset", "pmtg"]) == 2  # trained as ours, not pmtg
+    assert "not trained as preset 'pmtg'" in capsys.readouterr().err and not out.exists()
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"not a checkpoint")
+    assert tool.main(["--out", str(out), "--checkpoint", str(bad), "--seconds", "0.2"]) == 2
+    assert "cannot play checkpoint" in capsys.readouterr().err and not out.exists()
+    assert tool.main([*base, "--command", "0.4,0,0.2"]) == 0
     s = Usd.Stage.Open(str(out))
     info = s.GetRootLayer().customLayerData["wqwarp"]
-    assert info["mode"] == "policy" and info["preset"] == "ours"
-    robot = s.GetPrimAtPath("/World/robot_0")
-    assert robot.GetAttribute("wqwarp:phase").GetNumTimeSamples() == 11
-    np.testing.assert_allclose(list(robot.GetAttribute("wqwarp:command").Get(5)), [0.4, 0, 0], atol=1e-6)
+    assert info["mode"] == "policy" and info["preset"] == "ours" and info["iteration"] == 0
+    robot = s.GetPrimAtPath("/World/robot_1")
+    assert robot.GetAttribute("wqwarp:phase").GetNumTimeSamples() == 11  # 0.4 s at 25 fps, both ends
+    for frame in (0, 5, 10):  # the command in force is the one asked for, at every frame
+        np.testing.assert_allclose(list(robot.GetAttribute("wqwarp:command").Get(frame)), [0.4, 0, 0.2], atol=1e-6)
+    trunk = UsdGeom.Xformable(s.GetPrimAtPath("/World/robot_1/trunk")).GetOrderedXformOps()[0]
+    z = [trunk.Get(f)[2] for f in (0, 10)]
+    assert 0.15 < z[1] < 0.5 and z[0] != z[1]  # the simulated trunk is recorded and stays above the ground
 
 
 def test_failed_export_leaves_no_file(tmp_path):

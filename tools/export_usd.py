@@ -8,7 +8,7 @@ Usage::
 
 Without --checkpoint the robots play the nominal gait alone, open loop: legs track the nominal leg targets (PD),
 wheels the nominal wheel speeds; so the gait library can be inspected before any training. With --checkpoint a
-trained policy drives them (needs wqwarp.play).
+trained policy drives them, in the environment the checkpoint's configuration describes.
 
 The stage: Z up, metres, /World/ground (top face at z = 0), /World/robot_{i} side by side along y (1 m apart, more
 if their paths would overlap sideways), one Xform per rigid body /World/robot_{i}/{body} with the asset's shapes and
@@ -241,53 +241,40 @@ def run_nominal(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict,
     return rec, {"mode": "nominal", "gait": args.gait, "device": str(device)}, progress.wall
 
 
-# --- checkpoint seam --------------------------------------------------------------------------------------------
-# make_policy_runner(checkpoint, preset, num_envs, device) (wqwarp.play) is expected to return an object with
-#   .env            the environment: .sim (wqwarp.sim.backend.Simulator), .nominal (wqwarp.nominal.NominalGait),
-#                   .reset() -> observations (or a tuple whose first item is them), .step(actions) -> observations
-#                   (or a tuple whose first item is them), one policy step each; optionally .set_command((N, 3))
-#                   to hold the velocity commands fixed (otherwise the env's own commands are recorded);
-#   .policy(obs)    the trained policy: observations -> actions (inference, no gradients).
-# What is recorded is read after every env.step from env.sim (body_q, joint_q, joint_qd, p_cost, wheel_contact) and
-# env.nominal (phase, command, gait_id, active_gait_id): the env must keep its current commands in
-# env.nominal.command and the policy's selected gait in env.nominal.gait_id.
-# It should raise ValueError for a checkpoint that does not fit the preset's observation layout (KeyError and
-# torch's RuntimeError from load_state_dict are caught too); the message is shown with exit status 2.
 def run_policy(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict, float]:
-    """A trained policy for ``args.seconds``; returns the filled recorder, metadata and the rollout wall time [s]."""
-    try:
-        from wqwarp.play import make_policy_runner
-    except ImportError as e:
-        raise UsageError(f"--checkpoint needs wqwarp.play.make_policy_runner, which is not available ({e})") from None
+    """A trained policy (``wqwarp.play.make_policy_runner``: the env as the checkpoint's configuration says, no
+    randomisation) for ``args.seconds`` with the scheduled commands held; returns the filled recorder, metadata and
+    the rollout wall time [s]. Recorded after every step from ``env.sim`` and ``env.nominal``."""
+    import torch
+
+    from wqwarp.evaluation import start_rollout
+    from wqwarp.play import make_policy_runner
+
     try:
         runner = make_policy_runner(args.checkpoint, args.preset, args.num_envs, args.device)
     except (ValueError, KeyError, RuntimeError) as e:  # RuntimeError: torch's state_dict size mismatch
-        raise UsageError(f"cannot play checkpoint {args.checkpoint!r} with preset {args.preset!r}: {e}") from None
+        raise UsageError(f"cannot play checkpoint {args.checkpoint!r}: {e}") from None
     env = runner.env
     sim = env.sim
     n = sim.num_envs
     rec = RolloutRecorder.for_simulator(sim, args.seconds, args.fps)
     dt = sim.policy_dt
-    fixed = hasattr(env, "set_command") and (args.command is not None or args.command_script is not None)
-    if not fixed and (args.command is not None or args.command_script is not None):
-        print("warning: this env has no set_command(); its own commands are recorded", file=sys.stderr)
 
-    def first(x):
-        return x[0] if isinstance(x, tuple) else x
+    def command(t: float) -> torch.Tensor:
+        return torch.tensor(np.tile(schedule.at(t), (n, 1)), dtype=torch.float32, device=env.device)
 
-    obs = first(env.reset())
-    if fixed:
-        env.set_command(np.tile(schedule.at(0.0), (n, 1)))
+    obs = start_rollout(env, command(0.0), args.seconds)
     rec.capture(0, sim, env.nominal)
     progress = Progress(rec.num_steps, dt)
-    for step in range(1, rec.num_steps + 1):
-        if fixed:
-            env.set_command(np.tile(schedule.at((step - 1) * dt), (n, 1)))
-        obs = first(env.step(runner.policy(obs)))
-        rec.capture(step, sim, env.nominal)
-        progress(step)
-    meta = {"mode": "policy", "checkpoint": os.path.abspath(args.checkpoint), "preset": str(args.preset),
-            "device": str(args.device)}  # fmt: skip
+    with torch.no_grad():
+        for step in range(1, rec.num_steps + 1):
+            env.hold_commands(command((step - 1) * dt))  # the command in force during this step
+            obs, *_ = env.step(runner.policy(obs))
+            rec.capture(step, sim, env.nominal)
+            progress(step)
+    env.hold_commands(None)
+    meta = {"mode": "policy", "checkpoint": os.path.abspath(args.checkpoint), "preset": runner.preset,
+            "iteration": runner.iteration, "device": str(args.device)}  # fmt: skip
     return rec, meta, progress.wall
 
 

@@ -1,5 +1,6 @@
-"""The paper's Fig. 5 for a trained checkpoint: one robot through a sequence of commands, with the height of the
-front-right wheel, the requested and running gait, the measured power and the tracked velocity over time.
+"""The paper's Fig. 6 (the commanded-velocity experiment) for a trained checkpoint: one robot through a sequence of
+commands, with the height of the front-right wheel, the requested and running gait, the measured power and the tracked
+velocity over time.
 
 Usage::
 
@@ -17,6 +18,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
@@ -48,6 +50,8 @@ def main(argv=None) -> int:
     ap.add_argument("--preset", default=None, help="preset of the checkpoint (default: from its run's config.json)")
     ap.add_argument("--segments", default=DEFAULT_SEGMENTS, help=f"command segments (default {DEFAULT_SEGMENTS!r})")
     ap.add_argument("--robots", type=int, default=8, help="robots run side by side (default 8; robot 0 is drawn)")
+    ap.add_argument("--device", default="cpu", help="cpu or cuda:N (default cpu)")
+    ap.add_argument("--seed", type=int, default=0, help="random seed (spawn yaws; default 0)")
     ap.add_argument("--json", default=None, help="write the time series and per-segment summary here")
     ap.add_argument("--png", default=None, help="draw the figure here (matplotlib)")
     args = ap.parse_args(argv)
@@ -64,13 +68,15 @@ def main(argv=None) -> int:
     import warp as wp
 
     wp.config.quiet = True
+    from wqwarp.config import to_dict
     from wqwarp.evaluation import start_rollout
     from wqwarp.gaits import GAIT_NAMES
     from wqwarp.play import make_policy_runner
     from wqwarp.provenance import write_result_json
 
+    t0 = time.time()
     try:
-        runner = make_policy_runner(args.checkpoint, args.preset, args.robots)
+        runner = make_policy_runner(args.checkpoint, args.preset, args.robots, args.device, seed=args.seed)
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -127,7 +133,8 @@ def main(argv=None) -> int:
         print(f"{str(tuple(s['command'])):>18} {s['mean_p_cost']:7.1f} {s['mean_p_cost_legs']:6.1f} "
               f"{s['mean_p_cost_wheels']:6.1f} {s['mean_sq_velocity_error']:7.3f}  {gaits}")  # fmt: skip
     out = {"checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration, "robots": n,
-           "fell": int(fell.sum()), "segments": summary, "series_robot0": series}  # fmt: skip
+           "seed": args.seed, "fell": int(fell.sum()), "segments": summary, "series_robot0": series,
+           "wall_time_s": time.time() - t0, "config": to_dict(env.cfg)}  # fmt: skip
     if args.json:
         write_result_json(args.json, out, indent=None)  # the time series: compact
     if args.png:

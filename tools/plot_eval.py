@@ -1,4 +1,5 @@
-"""Draw the paper's Fig. 4 from evaluation results: tracking MSE and mean power per task, one bar per method.
+"""Draw the paper's Fig. 5 (fig:velocity_tracking) from evaluation results: tracking MSE and mean power per task,
+one bar per method.
 
 Usage::
 
@@ -13,6 +14,8 @@ import argparse
 import json
 import os
 import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 
 def main(argv=None) -> int:
@@ -33,31 +36,12 @@ def main(argv=None) -> int:
     if not tasks:
         print("error: no vx / vy / wz results in the given files", file=sys.stderr)
         return 2
-    import matplotlib
+    from wqwarp.report import draw_tracking_power
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
-    width = 0.8 / len(runs)
-    x = np.arange(len(tasks))
-    names = {"vx": "$v_x$ task", "vy": "$v_y$ task", "wz": "$\\omega$ task"}
-    for k, (label, res) in enumerate(runs):
-        mse = [res[t]["mse"] if t in res else np.nan for t in tasks]
-        pw = [res[t]["mean_p_cost"] if t in res else np.nan for t in tasks]
-        axes[0].bar(x + k * width, mse, width, label=label)
-        axes[1].bar(x + k * width, pw, width, label=label)
-    for ax, title in zip(axes, ("tracking MSE", "mean power p_cost [W]"), strict=True):
-        ax.set_xticks(x + width * (len(runs) - 1) / 2)
-        ax.set_xticklabels([names[t] for t in tasks])
-        ax.set_title(title)
-        ax.grid(axis="y", alpha=0.3)
-    axes[0].legend(fontsize=8)
-    fig.tight_layout()
-    tmp = args.out + ".tmp.png"
-    fig.savefig(tmp, dpi=100)
-    os.replace(tmp, args.out)
+    one = lambda v: {"mean": v, "std": 0.0, "n": 1}  # noqa: E731 - a single run: no spread
+    stats = [(label, {t: {"mse": one(r["mse"]), "mean_p_cost": one(r["mean_p_cost"])} for t, r in res.items()})
+             for label, res in runs]  # fmt: skip
+    draw_tracking_power(stats, args.out, tasks=tasks)
     print(f"wrote {args.out}")
     return 0
 

@@ -234,6 +234,9 @@ class DomainRandConfig:
     push_max_vel: float = 0.5
     """Largest velocity impulse along x and along y [m/s] (paper evaluates 0.5 and 0.7)."""
     enabled: bool = True
+    nominal_friction: float = 1.0
+    """Sliding friction of every contact when ``enabled`` is off (evaluation) [-]; the authors' MuJoCo model uses
+    0.6 (``constants.AUTHORS_GROUND_FRICTION``)."""
 
 
 @dataclass
@@ -378,6 +381,8 @@ def from_dict(cls, data, where: str = ""):
 MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("action.phase_residual_mode", "increment", "the only reading before the setting existed (issue 8)"),
     ("predictor.power_normalization", "watts", "the literal formula, the only one before the setting existed"),
+    ("sim.joint_model", "asset", "the USD's joint model, the only one before the setting existed"),
+    ("domain_rand.nominal_friction", 1.0, "the friction without randomisation before the setting existed"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
 checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""

@@ -80,6 +80,14 @@ WHEEL_ARMATURE = 6.07e-5 * 36.0
 WHEEL_AIRBORNE_INERTIA = 0.5 * WHEEL_MASS * WHEEL_RADIUS**2 + WHEEL_ARMATURE
 """Inertia a wheel-speed controller drives when the wheel is off the ground [kg m^2]: the wheel's axial inertia
 (solid cylinder, 5.7e-4) plus the armature, 2.75e-3 in all. It bounds the explicit velocity-feedback gain."""
+AUTHORS_JOINT_MODEL = {"damping": 0.01, "armature": 0.01, "friction": 0.2}
+"""The passive joint model of the authors' MuJoCo robot, a class default for every joint: damping [N m s/rad],
+armature [kg m^2] and friction loss (dry friction) [N m] (xu-yang16/wheeled-quadruped-sim2sim
+``resources/wheeled_go1/xml/wheeled_go1.xml`` line 11: ``<joint damping="0.01" armature="0.01" frictionloss="0.2"/>``).
+Keys are Newton's ``joint_damping`` / ``joint_armature`` / ``joint_friction`` without the prefix."""
+AUTHORS_GROUND_FRICTION = 0.6
+"""Sliding friction of every contact in the authors' MuJoCo model [-] (same file, line 7: geom default
+``friction="0.6 0.3 0.3"``)."""
 WHEEL_TORQUE_LIMIT = 6.0
 """Wheel torque limit [N m]: AK80-6 rated torque (peak 12 N m)."""
 WHEEL_VELOCITY_LIMIT = 38.2

@@ -135,7 +135,8 @@ class WheeledGo1Env(VecEnv):
 
         # Domain randomisation (fixed per robot for the run) and pushes.
         dr = cfg.domain_rand
-        self.friction = self._uniform(dr.friction_range, (n,)) if dr.enabled else torch.ones(n, device=dev)
+        nominal_mu = torch.full((n,), float(dr.nominal_friction), device=dev)
+        self.friction = self._uniform(dr.friction_range, (n,)) if dr.enabled else nominal_mu
         self.restitution = self._uniform(dr.restitution_range, (n,)) if dr.enabled else torch.zeros(n, device=dev)
         self.added_mass = self._uniform(dr.added_mass_range, (n,)) if dr.enabled else torch.zeros(n, device=dev)
         sim.set_dynamics(self.friction.cpu().numpy(), self.restitution.cpu().numpy(), self.added_mass.cpu().numpy())

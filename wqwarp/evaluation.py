@@ -7,6 +7,10 @@ report per task the mean squared and mean absolute tracking error (after a settl
 metric is over all robots: a robot that falls is reset where it is and keeps counting, and the number of falls is
 reported beside the metrics.
 
+Cost of transport (translation tasks): CoT = P / (m g v), the mean p_cost over the mean planar speed of all robots
+(energy per metre of travel over m g, without unit), m the robot's mass; reported for the v_x and v_y tasks where the
+mean speed is at least 0.1 m/s.
+
 Push recovery (Table III): random velocity impulses up to ``max_push`` along the trunk's x and y every
 ``push_interval`` seconds; a robot recovers if its trunk never touches the ground.
 """
@@ -66,6 +70,14 @@ class EvalResult:
     """Mean electrical power of the Joule model sum max(0.3 tau^2 + tau qd, 0) over the 16 motors [W]."""
     predicted_power: dict | None = None
     """Predictive selection: the power predictor's mean output per gait over the measured steps [W]."""
+    mean_speed: float = 0.0
+    """Mean planar speed |(v_x, v_y)| of the base over the measured steps, all robots [m/s]."""
+    cost_of_transport: float | None = None
+    """mean_p_cost / (m g mean_speed) [-]; None for stand and yaw, and where mean_speed < 0.1 m/s."""
+    mean_p_mech_legs: float = 0.0
+    """Mean positive mechanical power of the 12 leg joints [W]."""
+    mean_p_mech_wheels: float = 0.0
+    """Mean positive mechanical power of the 4 wheels [W]."""
     predicted_power_running: float | None = None
     """Predictive selection: mean predicted power of the gait running at each measured step [W] (compare with
     ``mean_p_cost`` over the same robots and steps)."""
@@ -90,6 +102,56 @@ def start_rollout(env, commands: torch.Tensor, seconds: float):
     env.push_interval_steps = 0
     env.hold_commands(commands)
     return env.reset()
+
+
+MIN_COT_SPEED = 0.1
+"""Mean planar speed [m/s] below which no cost of transport is reported."""
+POWER_KEYS = ("p_cost", "p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs",
+              "p_joule_wheels")  # fmt: skip
+"""Per-robot power outputs of the simulator (``env.tv``) that a task averages [W]."""
+
+
+class TaskMetrics:
+    """Running sums of one task's tracking and power metrics over N robots: :meth:`add` once per measured policy
+    step, :meth:`summary` for the means over all robots and steps."""
+
+    def __init__(self, task: str, commands: torch.Tensor):
+        if task not in TASKS:
+            raise ValueError(f"unknown task {task!r}; choose from {', '.join(TASKS)}")
+        self.task, self.axis, self.cmd = task, TASKS[task][0], commands
+        n, dev = commands.shape[0], commands.device
+        self.sq_axes = torch.zeros(n, 3, device=dev)
+        self.abs_err = torch.zeros(n, device=dev)
+        self.speed = torch.zeros(n, device=dev)
+        self.power = {k: torch.zeros(n, device=dev) for k in POWER_KEYS}
+        self.steps = 0
+
+    def add(self, velocity: torch.Tensor, power: dict) -> None:
+        """``velocity`` (N, 3): measured (v_x, v_y, w_z) in the base frame; ``power``: (N,) tensors of
+        :data:`POWER_KEYS` [W]."""
+        err = velocity - self.cmd
+        self.sq_axes += err**2
+        self.abs_err += err[:, self.axis].abs()
+        self.speed += torch.linalg.vector_norm(velocity[:, :2], dim=1)
+        for k in POWER_KEYS:
+            self.power[k] += power[k]
+        self.steps += 1
+
+    def summary(self, robot_mass: float) -> dict:
+        """Means over all robots and measured steps: the :class:`EvalResult` fields of tracking and power."""
+        c = max(self.steps, 1)
+        m = {k: float(v.mean()) / c for k, v in self.power.items()}
+        mse_axes = [float(x) / c for x in self.sq_axes.mean(0)]
+        speed = float(self.speed.mean()) / c
+        translating = self.task in ("vx", "vy") and speed >= MIN_COT_SPEED  # a yawing or standing base moves too
+        return {
+            "mse": mse_axes[self.axis], "mean_abs_error": float(self.abs_err.mean()) / c, "mse_axes": mse_axes,
+            "mean_p_cost": m["p_cost"], "mean_p_cost_legs": m["p_cost_legs"], "mean_p_cost_wheels": m["p_cost_wheels"],
+            "mean_p_mech": m["p_mech_legs"] + m["p_mech_wheels"], "mean_p_mech_legs": m["p_mech_legs"],
+            "mean_p_mech_wheels": m["p_mech_wheels"], "mean_p_joule": m["p_joule_legs"] + m["p_joule_wheels"],
+            "mean_speed": speed,
+            "cost_of_transport": m["p_cost"] / (robot_mass * 9.81 * speed) if translating else None,
+        }  # fmt: skip
 
 
 @torch.no_grad()
@@ -119,9 +181,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     num_gaits = env.gait_selector.num_gaits
     pred_sum = torch.zeros(n, max(num_gaits, 1), device=env.device)
     pred_run = torch.zeros(n, device=env.device)
-    sq_axes = torch.zeros(n, 3, device=env.device)
-    mech, joule = torch.zeros(n, device=env.device), torch.zeros(n, device=env.device)
-    sq, ab, power, legs, wheels, count = (torch.zeros(n, device=env.device) for _ in range(6))
+    metrics = TaskMetrics(task, cmd)
     for k in range(steps):
         if push_steps and k > 0 and k % push_steps == 0:
             env._push_robots(max_push)
@@ -136,42 +196,25 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
                 pred_sum += p_now
                 pred_run += p_now.gather(1, running_now[:, None]).squeeze(1)
             b = env.base_state()
-            actual = b["lin_vel"][:, axis] if axis < 2 else b["ang_vel"][:, 2]
-            err = actual - cmd[:, axis]
-            all_axes = torch.stack([b["lin_vel"][:, 0], b["lin_vel"][:, 1], b["ang_vel"][:, 2]], 1) - cmd
-            sq_axes += all_axes**2
-            mech += env.tv["p_mech_legs"] + env.tv["p_mech_wheels"]
-            joule += env.tv["p_joule_legs"] + env.tv["p_joule_wheels"]
-            sq += err**2
-            ab += err.abs()
-            power += env.tv["p_cost"]
-            legs += env.tv["p_cost_legs"]
-            wheels += env.tv["p_cost_wheels"]
-            count += 1
+            metrics.add(torch.stack([b["lin_vel"][:, 0], b["lin_vel"][:, 1], b["ang_vel"][:, 2]], 1), env.tv)
         if progress is not None:
             progress(k + 1, steps)
     gait = env.gait_selector.log_scalars()
     usage = usage_from_scalars(gait)
     env.hold_commands(None)
-    c = torch.clamp(count, min=1)
-    ok = ~fell
-    sel = torch.ones_like(ok)  # every metric over all robots; falls are reported beside them
+    c = max(metrics.steps, 1)
     predicted = predicted_running = None
-    if predictive:
+    if predictive:  # over all robots, as every metric; falls are reported beside them
         from wqwarp.gaits import GAIT_NAMES
 
-        mean_pred = (pred_sum / c[:, None])[sel].mean(0)
+        mean_pred = (pred_sum / c).mean(0)
         predicted = {g: float(mean_pred[i]) for i, g in enumerate(GAIT_NAMES[:num_gaits])}
-        predicted_running = float((pred_run / c)[sel].mean())
+        predicted_running = float((pred_run / c).mean())
     return EvalResult(
-        task=task, num_robots=n, seconds=seconds, mse=float((sq / c)[sel].mean()),
-        mean_abs_error=float((ab / c)[sel].mean()), mean_p_cost=float((power / c)[sel].mean()),
-        mean_p_cost_legs=float((legs / c)[sel].mean()), mean_p_cost_wheels=float((wheels / c)[sel].mean()),
-        upright=float(ok.float().mean()), falls=falls, max_push=max_push, command_range=list(rng),
+        task=task, num_robots=n, seconds=seconds, **metrics.summary(env.sim.robot_mass),
+        upright=float((~fell).float().mean()), falls=falls, max_push=max_push, command_range=list(rng),
         outside_training_range=outside, gait_usage=usage or None,
         gait_switches_per_robot_minute=gait.get("Gait/switches_per_robot_minute", 0.0),
         falls_within_1s_of_switch=int(gait.get("Gait/falls_within_1s_of_switch", 0)),
         predicted_power=predicted, predicted_power_running=predicted_running,
-        mse_axes=[float(x) for x in (sq_axes / c[:, None])[sel].mean(0)],
-        mean_p_mech=float((mech / c)[sel].mean()), mean_p_joule=float((joule / c)[sel].mean()),
     )  # fmt: skip

@@ -320,9 +320,10 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.windows = 0
         self.used_temperature = self.temperature
         """tau of the latest selection (logged for the rollout it belongs to)."""
-        self.forced_gait: int | None = None
-        """Diagnostics only: request this gait instead of selecting (the predictor still predicts; evaluation
-        compares its prediction for the forced gait with the realised power)."""
+        self.forced_gait: int | torch.Tensor | None = None
+        """Diagnostics only: request this gait (an index, or one per robot as an (N,) tensor) instead of selecting
+        (the predictor still predicts; evaluation compares its prediction for the forced gait with the realised
+        power)."""
         self.last_losses: dict[str, float] = {}
 
     @property
@@ -366,7 +367,8 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.used_temperature = self.temperature
         ids = self.due.nonzero(as_tuple=False).flatten()
         if len(ids) and self.forced_gait is not None:
-            self.requested[ids] = self.forced_gait
+            forced = self.forced_gait
+            self.requested[ids] = forced.to(self.requested)[ids] if torch.is_tensor(forced) else forced
             self.in_gait[ids] = 0
             self.due[ids] = False
         elif len(ids):

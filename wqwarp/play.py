@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import torch
 
 from wqwarp.config import EnvConfig, TrainConfig, env_config_from_dict, make_preset
+from wqwarp.constants import AUTHORS_GROUND_FRICTION
 from wqwarp.env import WheeledGo1Env
 
 
@@ -44,7 +45,10 @@ def checkpoint_preset(path: str) -> str | None:
 def checkpoint_env_config(path: str) -> EnvConfig:
     """The environment configuration a checkpoint was trained with (its ``infos['env_cfg']``), read whole
     (``wqwarp.config.from_dict``); ValueError if the file records none or one this version cannot read."""
-    ckpt = torch.load(path, map_location="cpu", weights_only=False)
+    try:
+        ckpt = torch.load(path, map_location="cpu", weights_only=False)
+    except Exception as e:  # noqa: BLE001 - pickle, zip and EOF errors all mean the same to the user
+        raise ValueError(f"{path} is not a readable checkpoint ({type(e).__name__}: {e})") from None
     infos = (ckpt.get("infos") or {}) if isinstance(ckpt, dict) else {}
     if not isinstance(infos, dict) or "env_cfg" not in infos:
         raise ValueError(f"{path} records no environment configuration (not a wqwarp checkpoint, or an old one)")
@@ -58,6 +62,18 @@ def checkpoint_env_config(path: str) -> EnvConfig:
     return cfg
 
 
+PHYSICS = {
+    "train": {},
+    "dt0.001": {"dt": 0.001},
+    "authors": {"joint_model": "authors", "friction": AUTHORS_GROUND_FRICTION},
+    "authors_dt0.001": {"dt": 0.001, "joint_model": "authors", "friction": AUTHORS_GROUND_FRICTION},
+}
+"""Physics configurations for sim-to-sim evaluation -> their overrides of the trained one. ``train``: as trained
+(no randomisation: every contact at ``domain_rand.nominal_friction``); ``dt0.001``: the paper's physics step, 0.001 s
+x 20 per policy step; ``authors``: the authors' MuJoCo robot's joint damping, armature and friction loss
+(``SimConfig.joint_model``) and their ground friction 0.6; ``authors_dt0.001``: both."""
+
+
 def evaluation_config(
     trained: EnvConfig,
     num_envs: int,
@@ -65,15 +81,25 @@ def evaluation_config(
     dt: float | None = None,
     domain_randomisation: bool = False,
     evaluation_selection: str | None = None,
+    physics: str = "train",
+    seed: int | None = None,
 ) -> EnvConfig:
     """A new config for evaluation from a checkpoint's ``trained`` one, with these named overrides only: robot count,
     device, domain randomisation and pushes (off by default; the protocol applies its own pushes), the physics step
-    ``dt`` [s] (the 50 Hz policy step is kept: decimation = policy step / dt) and the predictive selection outside
-    training (``argmin`` or ``sample``). ``trained`` is not modified."""
+    ``dt`` [s] (the 50 Hz policy step is kept: decimation = policy step / dt), the predictive selection outside
+    training (``argmin`` or ``sample``), a :data:`PHYSICS` configuration (its dt yields to an explicit ``dt``) and the
+    env's random ``seed`` (spawn yaws, pushes, sampled gaits). ``trained`` is not modified."""
+    if physics not in PHYSICS:
+        raise ValueError(f"unknown physics {physics!r}; choose from {', '.join(PHYSICS)}")
+    over = PHYSICS[physics]
+    dt = dt if dt is not None else over.get("dt")
     cfg = copy.deepcopy(trained)
     cfg.sim.num_envs = num_envs
     cfg.sim.device = device
     cfg.domain_rand.enabled = domain_randomisation
+    cfg.seed = cfg.seed if seed is None else int(seed)
+    cfg.sim.joint_model = over.get("joint_model", cfg.sim.joint_model)
+    cfg.domain_rand.nominal_friction = over.get("friction", cfg.domain_rand.nominal_friction)
     if dt is not None:
         policy_dt = cfg.sim.dt * cfg.sim.decimation
         dec = round(policy_dt / dt) if dt > 0 else 0
@@ -87,25 +113,40 @@ def evaluation_config(
     return cfg
 
 
-def _check_preset(preset: str, cfg: EnvConfig, path: str) -> None:
-    """A preset named on the command line must be the method the checkpoint was trained as."""
+def _preset_differences(preset: str, cfg: EnvConfig) -> list[str]:
+    """The behaviour settings that tell the paper's methods apart, where ``cfg`` differs from ``preset``."""
     ref = make_preset(preset)
     keys = (("gait.selection", ref.gait.selection, cfg.gait.selection),
+            ("gait.fixed_gait", ref.gait.fixed_gait, cfg.gait.fixed_gait),
             ("action.use_nominal_legs", ref.action.use_nominal_legs, cfg.action.use_nominal_legs),
             ("action.use_nominal_wheels", ref.action.use_nominal_wheels, cfg.action.use_nominal_wheels))  # fmt: skip
-    diff = [f"{k} {mine!r} (preset {preset}: {theirs!r})" for k, theirs, mine in keys if theirs != mine]
+    return [f"{k} {mine!r} (preset {preset}: {theirs!r})" for k, theirs, mine in keys if theirs != mine]
+
+
+def infer_preset(cfg: EnvConfig) -> str | None:
+    """The method (preset name) a configuration was trained as, from its behaviour settings; None if none fits."""
+    from wqwarp.config import PRESETS
+
+    hits = [p for p in PRESETS if not _preset_differences(p, cfg)]
+    return hits[0] if len(hits) == 1 else None
+
+
+def _check_preset(preset: str, cfg: EnvConfig, path: str) -> None:
+    """A preset named on the command line must be the method the checkpoint was trained as."""
+    diff = _preset_differences(preset, cfg)
     if diff:
         raise ValueError(f"{path} was not trained as preset {preset!r}: {', '.join(diff)}")
 
 
 def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, device: str = "cpu",
                        cfg: EnvConfig | None = None, dt: float | None = None,
-                       evaluation_selection: str | None = None) -> PolicyRunner:  # fmt: skip
+                       evaluation_selection: str | None = None, physics: str = "train",
+                       seed: int | None = None) -> PolicyRunner:  # fmt: skip
     """Build the environment from the configuration stored in ``checkpoint`` (with :func:`evaluation_config`'s named
     overrides; ``cfg`` replaces it entirely) and load the policy, estimator and gait selector. ``preset`` is the
     label of the results; if given it must match how the checkpoint was trained. Raises ValueError for a missing
-    file, a checkpoint without a readable configuration, another observation/action layout, a wrong preset, or a
-    dt that does not divide the policy step."""
+    file, a checkpoint without a readable configuration, another observation/action layout, a wrong preset, a dt
+    that does not divide the policy step, or an unknown ``physics`` (:data:`PHYSICS`)."""
     from wqwarp.runner import WqRunner
 
     if not os.path.isfile(checkpoint):
@@ -115,7 +156,10 @@ def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, devic
         trained = checkpoint_env_config(checkpoint)
         if preset is not None:
             _check_preset(preset, trained, checkpoint)
-        cfg = evaluation_config(trained, num_envs, device, dt=dt, evaluation_selection=evaluation_selection)
+        recorded = recorded or infer_preset(trained)
+        cfg = evaluation_config(
+            trained, num_envs, device, dt=dt, evaluation_selection=evaluation_selection, physics=physics, seed=seed
+        )
     preset = preset or recorded or "unknown"
     env = WheeledGo1Env(cfg)
     env.collect_training_data = False  # playback, evaluation and export: estimator and predictor as saved

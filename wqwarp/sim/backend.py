@@ -35,6 +35,23 @@ from wqwarp.kernels.contacts import accumulate_newton_contacts, contacts_from_se
 from wqwarp.kernels.state import gather_actuated, mujoco_state_to_newton, newton_state_to_mujoco
 
 BACKENDS = ("auto", "mujoco_cpu", "mujoco_warp")
+JOINT_MODELS = ("asset", "authors")
+
+
+def apply_joint_model(model, layout, name: str) -> None:
+    """Set the passive joint model ``name`` (``SimConfig.joint_model``) on the actuated joints of every world of a
+    finalized Newton ``model``, before a solver is built from it (Newton converts ``joint_damping``,
+    ``joint_armature`` and ``joint_friction`` to MuJoCo's ``dof_damping``, ``dof_armature`` and
+    ``dof_frictionloss``). ``asset`` leaves the model as loaded."""
+    if name == "asset":
+        return
+    worlds = model.joint_dof_count // layout.dofs_per_world
+    dofs = (np.arange(worlds)[:, None] * layout.dofs_per_world + np.asarray(layout.actuated_dof)[None, :]).ravel()
+    for key, value in C.AUTHORS_JOINT_MODEL.items():
+        arr = getattr(model, f"joint_{key}")
+        host = arr.numpy()
+        host[dofs] = value
+        arr.assign(host)
 
 
 @dataclass
@@ -75,6 +92,11 @@ class SimConfig:
     integral can hold a wheel against the ~2 N m scrub torque of skid-steer turning."""
     check_wheel_stability: bool = True
     """Refuse wheel gains whose airborne loop is unstable (kp dt / I >= 2). Off only to study that loop."""
+    joint_model: str = "asset"
+    """Passive model of the 16 actuated joints: ``asset`` (the USD's: armature 0.01 kg m^2 on the legs and 2.19e-3
+    on the wheels, no damping, no dry friction; ``tools/build_wheeled_go1.py`` says why) or ``authors`` (the authors'
+    MuJoCo robot: damping 0.01 N m s/rad, armature 0.01 kg m^2 and friction loss 0.2 N m on every joint,
+    ``constants.AUTHORS_JOINT_MODEL``), a second physics for sim-to-sim evaluation."""
     nthread: int | None = None
     """CPU threads for ``mujoco_cpu`` (default: all cores)."""
     cuda_graph: bool = True
@@ -111,6 +133,8 @@ class SimConfig:
                 f"(kp dt / I = {margin:.2f} >= 2, I = {C.WHEEL_AIRBORNE_INERTIA:.2e} kg m^2): use "
                 f"wheel_kp < {2.0 * C.WHEEL_AIRBORNE_INERTIA / self.dt:.2f}"
             )
+        if self.joint_model not in JOINT_MODELS:
+            raise ValueError(f"unknown joint_model {self.joint_model!r}; choose one of {', '.join(JOINT_MODELS)}")
         self.resolved_backend()
 
 
@@ -174,6 +198,9 @@ class Simulator:
         with wp.ScopedDevice(self.device):
             self.model = robot.scene_builder(n).finalize(device=self.device)
             self.layout = robot.robot_layout(self.model)
+            apply_joint_model(self.model, self.layout, cfg.joint_model)
+            self.robot_mass = float(self.model.body_mass.numpy()[: self.layout.bodies_per_world].sum())
+            """Mass of one robot as built [kg] (trunk, legs, wheels; without randomised added mass)."""
             lay = self.layout
             self.state = self.model.state()
             self.joint_q = self.state.joint_q.reshape((n, lay.coords_per_world))
@@ -323,6 +350,14 @@ class Simulator:
                       self._mj_qpos_start, self._root_com], outputs=[self._mj_state_wp[self._parity]],
                       device=self.device)  # fmt: skip
 
+    def mujoco_qpos(self) -> np.ndarray:
+        """(N, nq) MuJoCo ``qpos`` of every robot now, in the order of :attr:`mj_model` (``mujoco_cpu`` only): set it
+        on an ``MjData`` of ``mj_model`` and call ``mj_forward`` to render or inspect a robot with MuJoCo's tools."""
+        if self.backend != "mujoco_cpu":
+            raise RuntimeError("mujoco_qpos needs the mujoco_cpu backend (device cpu)")
+        s = self._mj_qpos_start
+        return self._mj_state[self._parity][:, 0, s : s + self.mj_model.nq].copy()
+
     def set_dynamics(self, friction: np.ndarray, restitution: np.ndarray, added_mass: np.ndarray) -> None:
         """Per-robot contact friction [-], restitution [-] and mass added to the trunk [kg], each (N,).
 
@@ -368,6 +403,7 @@ class Simulator:
 
         cfg = self.cfg
         template = robot.scene_builder(1).finalize(device="cpu")
+        apply_joint_model(template, robot.robot_layout(template), cfg.joint_model)
         log = logging.getLogger("newton")
         level = log.level
         with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():

@@ -1,0 +1,87 @@
+"""train/reproduce.py --budget smoke: every artefact is written, its numbers are the evaluation's, and a re-run
+continues instead of redoing."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+@pytest.fixture(scope="module")
+def reproduce():
+    spec = importlib.util.spec_from_file_location("reproduce_script", os.path.join(ROOT, "train", "reproduce.py"))
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # its dataclasses look their module up
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _load(path):
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def test_smoke_reproduction_writes_every_artefact_and_resumes(reproduce, tmp_path, capsys):
+    work, out = tmp_path / "work", tmp_path / "out"
+    args = ["--budget", "smoke", "--presets", "ours,pmtg", "--work", str(work), "--out", str(out)]
+    assert reproduce.main(args) == 0
+    ev, res = work / "eval", out / "results" / "smoke"
+    for name in ("RESULTS.md", "results/smoke/results.json", "results/smoke/tracking_power.png",
+                 "results/smoke/ours_s1_timeline.png", "results/smoke/ours_s1_energymap.png"):  # fmt: skip
+        assert (out / name).is_file(), name
+    for name in ("ours_s1_tracking", "pmtg_s1_tracking", "ours_s1_push", "pmtg_s1_push", "ours_s1_sim2sim"):
+        d = _load(ev / f"{name}.json")  # provenance of every evaluation
+        assert "evaluate.py" in d["command"] and "--seed 1" in d["command"] and d["git"]["commit"]
+        assert d["seed"] == 1 and d["config"]["sim"]["dt"] == 0.005 and d["wall_time_s"] > 0
+        assert (res / f"{name}.json").is_file()
+    summary, md = _load(res / "results.json"), (out / "RESULTS.md").read_text()
+
+    # Tracking and energy: the page's numbers are the evaluation's.
+    tracking = {r["task"]: r for r in _load(ev / "ours_s1_tracking.json")["results"]}
+    assert set(tracking) == {"stand", "vx", "vy", "wz"}
+    for task, r in tracking.items():
+        s = summary["presets"]["ours"]["tracking"][task]
+        assert s["mean_p_cost"]["mean"] == pytest.approx(r["mean_p_cost"]) and s["mse"]["n"] == 1
+        assert f"| Ours | {task} | {r['mse']:.4f} | {r['mean_p_cost']:.1f} |" in md
+    # Push recovery: Table III's layout with the paper's numbers beside ours; presets not run are dashes.
+    push = {(r["max_push"], r["task"]): r for r in _load(ev / "pmtg_s1_push.json")["results"]}
+    assert set(push) == {(lvl, t) for lvl in (0.5, 0.7) for t in ("stand", "vx", "vy", "wz")}
+    r = push[(0.7, "vy")]
+    assert r["command_range"] == [-1.0, 1.0] and r["outside_training_range"]
+    row = next(line for line in md.splitlines() if line.startswith("| 0.7 m/s | v_y in [-1, 1] |"))
+    assert f"{100 * r['upright']:.1f} / 56.8" in row and "- / 26.5" in row  # PMTG ours/paper; Baseline not run
+    # Sim-to-sim: each physics as a named override, deltas = other - train.
+    s2s = _load(ev / "ours_s1_sim2sim.json")
+    assert set(s2s["sim2sim"]) == {"dt0.001", "authors"}
+    assert s2s["sim2sim"]["dt0.001"]["config"]["sim"]["decimation"] == 20
+    assert s2s["sim2sim"]["authors"]["config"]["sim"]["joint_model"] == "authors"
+    base = {r["task"]: r for r in s2s["results"]}
+    for d, r in zip(s2s["sim2sim"]["authors"]["deltas"], s2s["sim2sim"]["authors"]["results"], strict=True):
+        assert d["mean_p_cost"] == pytest.approx(r["mean_p_cost"] - base[d["task"]]["mean_p_cost"])
+    # Timeline (Fig. 6: stand, forward, rotate, lateral) and the energy map.
+    tl = _load(ev / "ours_s1_timeline.json")
+    assert [s["command"] for s in tl["segments"]] == [[0, 0, 0], [0.8, 0, 0], [0, 0, 0.6], [0, 0.4, 0]]
+    em = _load(ev / "ours_s1_energymap.json")
+    assert len(em["cells"]) == 2 * 2 * 2  # two planes of 2 x 2 commands
+    for c in em["cells"]:
+        assert set(c["measured_p_cost"]) == {"driving", "trotting", "walking"}
+        assert c["predicted_winner"] == min(c["predicted_p_cost"], key=c["predicted_p_cost"].get)
+        assert max(c["share_not_in_forced_gait"].values()) < 0.5  # each robot ran the gait forced on it
+
+    # A re-run redoes nothing that is there; a stage that cannot run is reported and the others go on.
+    stamps = {p: p.stat().st_mtime_ns for p in ev.glob("*.json")}
+    assert reproduce.main([*args, "--stages", "train,tracking,push,report"]) == 0
+    assert {p: p.stat().st_mtime_ns for p in ev.glob("*.json")} == stamps
+    os.remove(ev / "pmtg_s1_push.json")
+    os.remove(work / "train" / "pmtg_s1" / "model_1.pt")
+    capsys.readouterr()
+    assert reproduce.main([*args, "--stages", "push,report"]) == 1
+    assert "push pmtg seed 1" in capsys.readouterr().err
+    assert "push pmtg seed 1" in (out / "RESULTS.md").read_text()  # listed as not run
+    assert reproduce.main(["--presets", "nope"]) == 2

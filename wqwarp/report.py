@@ -1,0 +1,324 @@
+"""The results page of a reproduction (``train/reproduce.py``): tables, figures and one JSON from the evaluation files.
+
+Everything here reads files that the evaluation processes wrote (each with its command line, git commit, seed and
+resolved configuration) and only summarises them: means and spreads over seeds, the paper's layouts, and the paper's
+own numbers beside ours where the paper gives numbers (Table III). Nothing is simulated here.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import statistics
+
+PAPER_NAMES = {"ours": "Ours", "baseline": "Baseline", "pmtg": "PMTG",
+               "no_wheel_vel": "Ours w/o nominal wheel velocity", "no_predictor": "Ours w/o switching"}  # fmt: skip
+"""Preset -> the column name of the paper's Table III."""
+TABLE3_ORDER = ("ours", "baseline", "pmtg", "no_wheel_vel", "no_predictor")
+PAPER_TABLE3 = {
+    0.5: {"stand": (100.0, 95.6, 68.5, 96.5, 84.3), "vx": (100.0, 84.8, 67.8, 92.7, 82.8),
+          "vy": (99.8, 45.3, 61.2, 87.1, 76.0), "wz": (99.7, 47.0, 60.4, 91.2, 78.9)},
+    0.7: {"stand": (98.7, 89.8, 58.4, 86.7, 63.4), "vx": (97.6, 72.5, 57.3, 84.2, 61.8),
+          "vy": (91.7, 26.5, 56.8, 79.7, 57.6), "wz": (93.8, 39.1, 54.3, 84.9, 58.9)},
+}  # fmt: skip
+"""The paper's Table III [% recovered], columns in :data:`TABLE3_ORDER`."""
+TASK_NAMES = {"stand": "stand", "vx": "$v_x$", "vy": "$v_y$", "wz": "$\\omega$"}
+PLAIN_NAMES = {"stand": "stand", "vx": "v_x", "vy": "v_y", "wz": "w"}
+SETTINGS = {"stand": "v_x = v_y = w = 0", "vx": "v_x in [-1, 1]", "vy": "v_y in [-1, 1]", "wz": "w in [-1, 1]"}
+METRICS = ("mse", "mean_abs_error", "mean_p_cost", "mean_p_cost_legs", "mean_p_cost_wheels", "mean_p_mech",
+           "mean_p_joule", "cost_of_transport", "upright", "falls")  # fmt: skip
+
+
+def _load(path: str) -> dict | None:
+    if not os.path.isfile(path):
+        return None
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def _stat(values: list) -> dict | None:
+    """Mean, sample standard deviation (0 for one value) and count of the non-None ``values``."""
+    v = [float(x) for x in values if x is not None]
+    if not v:
+        return None
+    return {"mean": statistics.fmean(v), "std": statistics.stdev(v) if len(v) > 1 else 0.0, "n": len(v)}
+
+
+def _fmt(s: dict | None, digits: int = 1, scale: float = 1.0) -> str:
+    if s is None:
+        return "-"
+    text = f"{scale * s['mean']:.{digits}f}"
+    return text + (f" ± {scale * s['std']:.{digits}f}" if s["n"] > 1 else "")
+
+
+def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
+    """Per preset: tracking and push metrics (mean/std over seeds), sim-to-sim deltas, and which files exist."""
+    ev = os.path.join(work, "eval")
+    out: dict = {"presets": {}, "missing": []}
+    for p in presets:
+        entry: dict = {"tracking": {}, "push": {}, "sim2sim": {}, "seeds": {}}
+        tracking, push, s2s = {}, {}, {}
+        for s in seeds:
+            files = {k: os.path.join(ev, f"{p}_s{s}_{k}.json") for k in ("tracking", "push", "sim2sim")}
+            t, pu, ss = (_load(files[k]) for k in ("tracking", "push", "sim2sim"))
+            entry["seeds"][s] = {k: os.path.relpath(v, work) for k, v in files.items() if os.path.isfile(v)}
+            for k, d in (("tracking", t), ("push", pu)):
+                if d is None:
+                    out["missing"].append(f"{k} {p} seed {s}")
+            if t:
+                for r in t["results"]:
+                    tracking.setdefault(r["task"], []).append(r)
+            if pu:
+                for r in pu["results"]:
+                    push.setdefault((r["max_push"], r["task"]), []).append(r)
+            if ss:
+                for phys, block in ss.get("sim2sim", {}).items():
+                    for d in block["deltas"]:
+                        s2s.setdefault((phys, d["task"]), []).append(d)
+                for r in ss["results"]:
+                    s2s.setdefault(("train", r["task"]), []).append(r)
+        for task, rs in tracking.items():
+            entry["tracking"][task] = {m: _stat([r.get(m) for r in rs]) for m in METRICS}
+            usage = [r.get("gait_usage") or {} for r in rs]
+            gaits = sorted({g for u in usage for g in u})
+            entry["tracking"][task]["gait_usage"] = {g: statistics.fmean(u.get(g, 0.0) for u in usage) for g in gaits}
+            entry["tracking"][task]["outside_training_range"] = any(r.get("outside_training_range") for r in rs)
+        for (lvl, task), rs in push.items():
+            stats = {m: _stat([r.get(m) for r in rs]) for m in ("upright", "falls")}
+            entry["push"].setdefault(str(lvl), {})[task] = stats
+        for (phys, task), rs in s2s.items():
+            keys = ("mse", "mean_p_cost", "mean_p_cost_legs", "mean_p_cost_wheels", "upright")
+            entry["sim2sim"].setdefault(phys, {})[task] = {m: _stat([r.get(m) for r in rs]) for m in keys}
+        out["presets"][p] = entry
+    return out
+
+
+def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "vy", "wz", "stand")) -> None:
+    """The paper's Fig. 5 layout: tracking MSE and mean p_cost per task, one bar per method, error bars = standard
+    deviation over seeds. ``runs``: ``[(label, {task: {"mse": stat, "mean_p_cost": stat}})]`` with ``stat`` a
+    ``{"mean", "std", "n"}`` dict."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    tasks = [t for t in tasks if any(t in r for _, r in runs)]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    width = 0.8 / max(len(runs), 1)
+    x = np.arange(len(tasks))
+    for k, (label, res) in enumerate(runs):
+        for ax, metric in zip(axes, ("mse", "mean_p_cost"), strict=True):
+            stats = [res.get(t, {}).get(metric) for t in tasks]
+            mean = [s["mean"] if s else np.nan for s in stats]
+            std = [s["std"] if s and s["n"] > 1 else 0.0 for s in stats]
+            ax.bar(x + k * width, mean, width, yerr=std, capsize=2, label=label)
+    for ax, title in zip(axes, ("tracking MSE of the task's axis", "mean power p_cost [W]"), strict=True):
+        ax.set_xticks(x + width * (len(runs) - 1) / 2)
+        ax.set_xticklabels([f"{TASK_NAMES[t]} task" for t in tasks])
+        ax.set_title(title)
+        ax.grid(axis="y", alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    tmp = path + ".tmp.png"
+    fig.savefig(tmp, dpi=100)
+    os.replace(tmp, path)
+
+
+def _train_info(work: str, preset: str, seed: int) -> dict:
+    d = os.path.join(work, "train", f"{preset}_s{seed}")
+    info: dict = {}
+    cfg = _load(os.path.join(d, "config.json"))
+    if cfg:
+        info["args"] = cfg.get("args")
+    log = os.path.join(work, "train", f"{preset}_s{seed}.log")
+    if os.path.isfile(log):
+        with open(log, encoding="utf-8", errors="replace") as f:
+            text = f.read()
+        runs = re.findall(r"\| (\d+) iterations in (\d+):(\d\d):(\d\d)", text)
+        info["wall_time_s"] = sum(int(h) * 3600 + int(m) * 60 + int(s) for _, h, m, s in runs) if runs else None
+        fin = re.findall(r"mean episode reward ([-\d.]+)", text)
+        info["final_mean_reward"] = float(fin[-1]) if fin else None
+    return info
+
+
+def write_report(work: str, out: str, budget_name: str, budget, presets: list[str], seeds: list[int],
+                 wall_s: float) -> dict:  # fmt: skip
+    """Write ``out/RESULTS.md`` and ``out/results/<budget>/`` (results.json, the evaluation JSONs, PNGs)."""
+    from dataclasses import asdict
+
+    from wqwarp.provenance import git_state, write_result_json
+
+    res_dir = os.path.join(out, "results", budget_name)
+    os.makedirs(res_dir, exist_ok=True)
+    data = collect(work, presets, seeds)
+    figures = {}
+    runs = [(PAPER_NAMES[p], data["presets"][p]["tracking"]) for p in presets if data["presets"][p]["tracking"]]
+    if runs:
+        draw_tracking_power(runs, os.path.join(res_dir, "tracking_power.png"))
+        figures["tracking_power"] = "tracking_power.png"
+    copied = []
+    for name in os.listdir(os.path.join(work, "eval")) if os.path.isdir(os.path.join(work, "eval")) else []:
+        if name.endswith((".json", ".png")):
+            shutil.copyfile(os.path.join(work, "eval", name), os.path.join(res_dir, name))
+            copied.append(name)
+    for kind in ("timeline", "energymap"):
+        hits = sorted(n for n in copied if n.endswith(f"_{kind}.png"))
+        if hits:
+            figures[kind] = hits[0]
+    training = {p: {s: _train_info(work, p, s) for s in seeds} for p in presets}
+    summary = {"budget": budget_name, "sizes": asdict(budget), "presets": presets, "seeds": seeds,
+               "wall_time_s": wall_s, "training": training, "figures": figures, **data}  # fmt: skip
+    write_result_json(os.path.join(res_dir, "results.json"), summary)
+    md = render_markdown(summary, budget_name, budget, res_dir, out, work, git_state())
+    tmp = os.path.join(out, "RESULTS.md.tmp")
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(md)
+    os.replace(tmp, os.path.join(out, "RESULTS.md"))
+    return summary
+
+
+def _ordering_checks(summary: dict) -> list[str]:
+    """The paper's qualitative claims about Fig. 5, checked against these numbers."""
+    pres = summary["presets"]
+    lines = []
+
+    def metric(p, task, m):
+        s = pres.get(p, {}).get("tracking", {}).get(task, {}).get(m)
+        return s["mean"] if s else None
+
+    have = [p for p in pres if pres[p]["tracking"]]
+    for task in ("vx", "vy", "wz"):
+        vals = {p: metric(p, task, "mse") for p in have if metric(p, task, "mse") is not None}
+        if "ours" in vals and len(vals) > 1:
+            best = min(vals, key=vals.get)
+            ok = best == "ours"
+            ours = "" if ok else f", Ours {vals['ours']:.4f}"
+            lines.append(f"- {PLAIN_NAMES[task]} task, lowest tracking MSE: paper Ours; here "
+                         f"{PAPER_NAMES[best]} ({vals[best]:.4f}){ours} -> "
+                         f"{'agrees' if ok else 'differs'}")  # fmt: skip
+    powers = {}
+    for p in have:
+        vals = [metric(p, t, "mean_p_cost") for t in ("vx", "vy", "wz")]
+        if all(v is not None for v in vals):
+            powers[p] = statistics.fmean(vals)
+    if len(powers) > 1:
+        hi, lo = max(powers, key=powers.get), min(powers, key=powers.get)
+        lines.append(f"- highest mean power over the three tasks: paper PMTG; here {PAPER_NAMES[hi]} "
+                     f"({powers[hi]:.1f} W) -> {'agrees' if hi == 'pmtg' else 'differs'}")  # fmt: skip
+        lines.append(f"- lowest mean power over the three tasks: paper Ours; here {PAPER_NAMES[lo]} "
+                     f"({powers[lo]:.1f} W) -> {'agrees' if lo == 'ours' else 'differs'}")  # fmt: skip
+    for p in have:
+        per_task = {t: metric(p, t, "mean_p_cost") for t in ("vx", "vy", "wz")}
+        if all(v is not None for v in per_task.values()):
+            lo = min(per_task, key=per_task.get)
+            lines.append(f"- {PAPER_NAMES[p]}: cheapest task {PLAIN_NAMES[lo]} (paper: the forward task "
+                         f"v_x for every method) -> {'agrees' if lo == 'vx' else 'differs'}")  # fmt: skip
+    return lines
+
+
+def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: str, work: str, git: dict) -> str:
+    rel = os.path.relpath(res_dir, out)
+    pres = summary["presets"]
+    samples = budget.num_envs * budget.steps_per_env * budget.iterations
+    paper_samples = 4096 * 24 * 4000
+    lines = [
+        f"# Results: reproduction of the paper's evaluation ({budget_name} budget)",
+        "",
+        f"Written by `python train/reproduce.py --budget {budget_name}` (this page: `wqwarp/report.py`) at commit "
+        f"`{(git.get('commit') or 'unknown')[:12]}`{' (uncommitted changes)' if git.get('dirty') else ''}; seeds "
+        f"{', '.join(map(str, summary['seeds']))}. Every number below comes from a JSON in `{rel}/` that records the "
+        "command that produced it, its commit, seed, resolved configuration and wall time; `results.json` collects "
+        "them.",
+        "",
+        f"**Budget.** Training: {budget.num_envs} robots x {budget.steps_per_env} steps x {budget.iterations} "
+        f"iterations = {samples / 1e6:.2f} M samples per preset and seed, {100 * samples / paper_samples:.2f} % of the "
+        f"paper's 4096 x 24 x 4000 = {paper_samples / 1e6:.0f} M. Tracking and energy: {budget.eval_envs} robots x "
+        f"{budget.eval_seconds:g} s per task (paper: 1000 x 60 s). Push recovery: {budget.push_envs} robots x "
+        f"{budget.push_seconds:g} s, a push every {budget.push_interval:g} s (paper: 1000 x 60 s, every 15 s).",
+        "",
+    ]
+    missing = summary.get("missing") or []
+    if missing:
+        lines += ["**Not run (yet):** " + "; ".join(missing) + ". Re-running the same command continues.", ""]
+    # Tracking and energy.
+    lines += ["## Tracking and energy (the paper's Fig. 5)", "",
+              "One command axis per task, spread evenly over the paper's range (v_x [-1, 1] m/s, v_y [-0.7, 0.7] m/s, "
+              "w [-0.7, 0.7] rad/s; stand: all zero), held for the whole run; metrics after 2 s of settling over all "
+              "robots, falls beside. p_cost = sum |tau| |qd| over the 16 joints; CoT = p_cost / (m g mean speed). "
+              "Mean ± standard deviation over seeds where there are several.", ""]  # fmt: skip
+    if "tracking_power" in summary["figures"]:
+        lines += [f"![tracking and power]({rel}/{summary['figures']['tracking_power']})", ""]
+    lines += ["| method | task | MSE | p_cost [W] | legs [W] | wheels [W] | p_mech [W] | CoT | falls | gaits |",
+              "|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    for p, e in pres.items():
+        for task in ("vx", "vy", "wz", "stand"):
+            r = e["tracking"].get(task)
+            if not r:
+                continue
+            gaits = ", ".join(f"{g} {100 * v:.0f}%" for g, v in r["gait_usage"].items() if v >= 0.005)
+            lines.append(f"| {PAPER_NAMES[p]} | {task} | {_fmt(r['mse'], 4)} | {_fmt(r['mean_p_cost'])} | "
+                         f"{_fmt(r['mean_p_cost_legs'])} | {_fmt(r['mean_p_cost_wheels'])} | "
+                         f"{_fmt(r['mean_p_mech'])} | "
+                         f"{_fmt(r['cost_of_transport'], 2)} | {_fmt(r['falls'], 0)} | {gaits} |")  # fmt: skip
+    checks = _ordering_checks(summary)
+    if checks:
+        lines += ["", "Against the paper's statements about Fig. 5 (the figure's bars are not in the source):", "",
+                  *checks]  # fmt: skip
+    # Table III.
+    lines += ["", "## Push recovery (the paper's Table III)", "",
+              "Random velocity impulses up to the maximum along the trunk's x and y; a robot **recovers** if its "
+              "trunk never touches the ground during the run. Each cell: this reproduction / the paper [%].", "",
+              "| max push | setting | " + " | ".join(PAPER_NAMES[p] for p in TABLE3_ORDER) + " |",
+              "|---|---|" + "---|" * len(TABLE3_ORDER)]  # fmt: skip
+    for lvl, rows in PAPER_TABLE3.items():
+        for task, paper in rows.items():
+            cells = []
+            for p, ref in zip(TABLE3_ORDER, paper, strict=True):
+                r = pres.get(p, {}).get("push", {}).get(str(lvl), {}).get(task)
+                cells.append(f"{_fmt(r['upright'], 1, 100.0) if r else '-'} / {ref:g}")
+            lines.append(f"| {lvl:g} m/s | {SETTINGS[task]} | " + " | ".join(cells) + " |")
+    # Sim-to-sim.
+    s2s = pres.get("ours", {}).get("sim2sim", {})
+    if s2s:
+        lines += ["", "## Sim-to-sim (Ours)", "",
+                  "The same checkpoint, tasks, robots and seed under a second physics, minus the training physics "
+                  "(`train/evaluate.py --physics`): dt0.001 = the paper's 0.001 s x 20 substeps; authors = the "
+                  "authors' MuJoCo joint damping 0.01, armature 0.01, friction loss 0.2 and ground friction 0.6.", "",
+                  "| physics | task | MSE (train) | dMSE | p_cost (train) [W] | dp_cost [W] | dlegs [W] | "
+                  "dwheels [W] | dupright [%] |", "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+        base = s2s.get("train", {})
+        for phys, tasks in s2s.items():
+            if phys == "train":
+                continue
+            for task, d in tasks.items():
+                b = base.get(task, {})
+                lines.append(f"| {phys} | {task} | {_fmt(b.get('mse'), 4)} | {_fmt(d['mse'], 4)} | "
+                             f"{_fmt(b.get('mean_p_cost'))} | {_fmt(d['mean_p_cost'])} | {_fmt(d['mean_p_cost_legs'])} "
+                             f"| {_fmt(d['mean_p_cost_wheels'])} | {_fmt(d['upright'], 1, 100.0)} |")  # fmt: skip
+    # Timeline and energy map.
+    if "timeline" in summary["figures"]:
+        lines += ["", "## Command sequence (the paper's Fig. 6)", "",
+                  "One robot: stand -> forward -> rotate -> lateral; front-right wheel height, requested and running "
+                  "gait, and power per joint group.", "",
+                  f"![timeline]({rel}/{summary['figures']['timeline']})"]  # fmt: skip
+    if "energymap" in summary["figures"]:
+        em = _load(os.path.join(res_dir, summary["figures"]["energymap"].replace(".png", ".json")))
+        agree = (f" The predicted winner matches the measured one in {100 * em['winner_agreement']:.0f} % of the "
+                 "cells." if em else "")  # fmt: skip
+        lines += ["", "## Gait energy map (Ours)", "",
+                  "Each gait forced on its own robot at every command of two planes, (v_x, v_y) and (v_x, w): "
+                  "measured p_cost (the predictor's estimate in brackets) and the winning gait." + agree, "",
+                  f"![energy map]({rel}/{summary['figures']['energymap']})"]  # fmt: skip
+    # Training.
+    lines += ["", "## Training", "", "| method | seed | wall time | final mean episode reward |", "|---|---|---|---|"]
+    for p, per_seed in summary["training"].items():
+        for s, info in per_seed.items():
+            wt = info.get("wall_time_s")
+            rw = info.get("final_mean_reward")
+            lines.append(f"| {PAPER_NAMES[p]} | {s} | {f'{wt / 60:.0f} min' if wt else '-'} | "
+                         f"{f'{rw:.1f}' if rw is not None else '-'} |")  # fmt: skip
+    lines += ["", f"Reproduction wall time of this invocation: {summary['wall_time_s'] / 60:.0f} min.", ""]
+    return "\n".join(lines)
