@@ -198,9 +198,9 @@ def draw(result: dict, path: str) -> None:
     fig.suptitle(f"gait energy map: {result['preset']} (iteration {result['iteration']}), "
                  f"x = the trunk touched the ground", fontsize=10)  # fmt: skip
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=90)
-    os.replace(tmp, path)
+    from wqwarp.provenance import save_figure
+
+    save_figure(fig, path, dpi=90)
 
 
 if __name__ == "__main__":

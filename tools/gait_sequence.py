@@ -175,9 +175,9 @@ def draw(out: dict, path: str) -> None:
     ax[3].legend(loc="upper right", fontsize=8)
     fig.suptitle(f"{out['preset']} (iteration {out['iteration']}), robot 0")
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=100)
-    os.replace(tmp, path)
+    from wqwarp.provenance import save_figure
+
+    save_figure(fig, path, dpi=100)
 
 
 if __name__ == "__main__":

@@ -14,6 +14,8 @@ import argparse
 import os
 import sys
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
 
 def load_scalars(run_dir: str) -> dict[str, tuple[list[int], list[float], list[float]]]:
     """tag -> (steps, values, wall times [s from start]) of every scalar in the run's event files."""
@@ -68,9 +70,9 @@ def main(argv=None) -> int:
     axes[-1].set_xlabel("PPO iteration")
     axes[0].legend()
     fig.tight_layout()
-    tmp = args.out + ".tmp.png"
-    fig.savefig(tmp, dpi=100)
-    os.replace(tmp, args.out)
+    from wqwarp.provenance import save_figure
+
+    save_figure(fig, args.out, dpi=100)
     print(f"wrote {args.out}")
     return 0
 

@@ -2,7 +2,7 @@
 
 Examples::
 
-    python train/ppo_newton.py                                   # ours: predictive gait selection (~70 min, 2 cores)
+    python train/ppo_newton.py                                   # ours: predictive gait selection (4000 iterations)
     python train/ppo_newton.py --preset no_predictor --max-iterations 1500 --temperature-iterations 1000
     python train/ppo_newton.py --preset pmtg --num-envs 256 --max-iterations 2000
     python train/ppo_newton.py --resume runs/ours_20261126-0900/model_500.pt
@@ -53,8 +53,8 @@ def parse_args(argv=None) -> argparse.Namespace:
         "--max-iterations",
         type=int,
         default=4000,
-        help="PPO iterations of 24 steps per robot each (default 4000 as in the paper: about 50 min with 128 "
-        "robots on 2 CPU cores)",
+        help="PPO iterations of 24 steps per robot each (default 4000 as in the paper; 63 min with 128 "
+        "robots on 2 CPU cores, docs/train_no_predictor_increment_4000.log)",
     )
     p.add_argument(
         "--device",

@@ -35,3 +35,19 @@ def write_result_json(path: str, data: dict, indent: int | None = 2) -> None:
     finally:
         if os.path.exists(tmp):
             os.remove(tmp)
+
+
+def save_figure(fig, path: str, dpi: int = 100) -> None:
+    """Save a matplotlib figure atomically (temporary file, then rename), with the command line and
+    :func:`git_state` in the PNG's metadata (``Description`` and ``Source``; read them with any PNG tool or
+    ``PIL.Image.open(path).info``)."""
+    git = git_state()
+    source = f"git {git['commit']}{' (dirty)' if git['dirty'] else ''}"
+    root, ext = os.path.splitext(path)
+    tmp = f"{root}.tmp{ext or '.png'}"
+    try:
+        fig.savefig(tmp, dpi=dpi, metadata={"Description": " ".join(sys.argv), "Source": source})
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)

@@ -122,9 +122,9 @@ def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "v
         ax.grid(axis="y", alpha=0.3)
     axes[0].legend(fontsize=8)
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=100)
-    os.replace(tmp, path)
+    from wqwarp.provenance import save_figure
+
+    save_figure(fig, path, dpi=100)
 
 
 def _train_info(work: str, preset: str, seed: int) -> dict:
