@@ -11,7 +11,10 @@ evaluation ranges (v_x [-1, 1] m/s, v_y [-0.7, 0.7] m/s, w [-0.7, 0.7] rad/s). E
 randomisation. Measured per robot over the second half of ``--seconds``: mean p_cost (legs and wheels), the squared
 velocity error, and whether the trunk touched the ground. Predicted: the mean over the same steps of the predictor's
 output for that gait, from the observations of the cell's three robots. The measured winner is the cheapest gait
-whose robot stayed up; the predicted winner is the argmin of the predictions (what the policy would select).
+whose robot stayed up, the tracking winner the cheapest whose robot also tracked its command (squared velocity error
+at most ``TRACKING_LIMIT``); the predicted winner is the argmin of the predictions (what the policy would select).
+Energy alone can favour a gait that does not do the task (driving under a lateral command stands still, cheaply):
+the figure marks such cells.
 
 The policy was trained with the gaits its selector chose; a forced gait it rarely ran during training measures
 that gait under this policy, not the gait's best possible power. Nothing learns.
@@ -26,6 +29,9 @@ import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 RANGES = {"vx": (-1.0, 1.0), "vy": (-0.7, 0.7), "wz": (-0.7, 0.7)}
+TRACKING_LIMIT = 0.05
+"""Squared velocity error [(m/s)^2, (rad/s)^2 summed over v_x, v_y, w] up to which a gait counts as tracking its
+command (0.05: an error of about 0.22 m/s)."""
 PLANES = (("vx", "vy"), ("vx", "wz"))
 
 
@@ -122,6 +128,7 @@ def main(argv=None) -> int:
         measured = {gaits[k]: float(p[r][k]) for k in range(g)}
         predicted = {gaits[k]: float(pred[r].mean(0)[k]) for k in range(g)}  # from all three robots' observations
         up = [k for k in range(g) if not bool(fell[r][k])]
+        ok = [k for k in up if float(err[r][k]) <= TRACKING_LIMIT]
         out_cells.append({
             "plane": plane, "command": list(command), "measured_p_cost": measured,
             "measured_p_cost_legs": {gaits[k]: float(legs[r][k]) for k in range(g)},
@@ -131,6 +138,7 @@ def main(argv=None) -> int:
             "share_not_in_forced_gait": {gaits[k]: float(wrong_gait[r][k]) for k in range(g)},
             "predicted_p_cost": predicted,
             "measured_winner": gaits[min(up, key=lambda k: float(p[r][k]))] if up else None,
+            "measured_winner_tracking": gaits[min(ok, key=lambda k: float(p[r][k]))] if ok else None,
             "predicted_winner": min(predicted, key=predicted.get),
         })  # fmt: skip
     agree = [cl["measured_winner"] == cl["predicted_winner"] for cl in out_cells if cl["measured_winner"]]
@@ -138,9 +146,12 @@ def main(argv=None) -> int:
           f"{args.seconds:g} s; predicted winner = measured winner in {sum(agree)}/{len(agree)} cells")  # fmt: skip
     wins = {gt: sum(cl["measured_winner"] == gt for cl in out_cells) for gt in gaits}
     print("measured winners: " + ", ".join(f"{gt} {w}" for gt, w in wins.items()))
+    untracked = sum(cl["measured_winner"] != cl["measured_winner_tracking"] for cl in out_cells)
+    print(f"cells where the cheapest gait does not track its command (squared error > {TRACKING_LIMIT}): {untracked}")
     result = {"checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration,
               "seed": args.seed, "grid": args.grid, "seconds": args.seconds, "wall_time_s": time.time() - t0,
-              "winner_agreement": sum(agree) / max(len(agree), 1), "cells": out_cells,
+              "winner_agreement": sum(agree) / max(len(agree), 1), "tracking_limit": TRACKING_LIMIT,
+              "cheapest_does_not_track": untracked, "cells": out_cells,
               "config": to_dict(env.cfg)}  # fmt: skip
     if args.json:
         write_result_json(args.json, result, indent=None)
@@ -187,9 +198,11 @@ def draw(result: dict, path: str) -> None:
         for i, v in enumerate(vs):
             for j, u in enumerate(us):
                 c = at[(u, v)]
-                ax[row, -1].text(j, i, f"{(c['measured_winner'] or '-')[:5]}\npred {c['predicted_winner'][:5]}",
-                                 ha="center", va="center", fontsize=6)  # fmt: skip
-        ax[row, -1].set_title("winner: measured (colour), predicted", fontsize=9)
+                text = f"{(c['measured_winner'] or '-')[:5]}\npred {c['predicted_winner'][:5]}"
+                if c["measured_winner_tracking"] != c["measured_winner"]:
+                    text += f"\ntrack {(c['measured_winner_tracking'] or 'none')[:5]}"
+                ax[row, -1].text(j, i, text, ha="center", va="center", fontsize=6)
+        ax[row, -1].set_title("cheapest: measured (colour), predicted;\n'track': cheapest that tracks", fontsize=8)
         for axx in ax[row]:
             axx.set_xticks(range(len(us)), [f"{u:g}" for u in us], fontsize=7)
             axx.set_yticks(range(len(vs)), [f"{v:g}" for v in vs], fontsize=7)

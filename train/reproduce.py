@@ -238,7 +238,7 @@ def _tool(args, budget, preset, seed, name, script, extra) -> bool:
     if preset != "ours":
         return True
     out = os.path.join(args.work, "eval", f"{preset}_s{seed}_{name}")
-    if os.path.isfile(out + ".json"):
+    if os.path.isfile(out + ".json") and os.path.isfile(out + ".png"):  # both, or the stage runs again
         return True
     ckpt = final_checkpoint(args.work, preset, seed, budget)
     if not os.path.isfile(ckpt):
