@@ -53,6 +53,15 @@ def _fmt(s: dict | None, digits: int = 1, scale: float = 1.0) -> str:
     return text + (f" ± {scale * s['std']:.{digits}f}" if s["n"] > 1 else "")
 
 
+def _command_variance(result: dict) -> float:
+    """Mean squared command of a task's robots (commands spread evenly over its range): the MSE of a robot that
+    does not move along the task's axis."""
+    lo, hi = result.get("command_range") or (0.0, 0.0)
+    n = max(int(result.get("num_robots", 1)), 1)
+    cmds = [lo + (hi - lo) * i / (n - 1) for i in range(n)] if n > 1 else [(lo + hi) / 2]
+    return statistics.fmean(c * c for c in cmds)
+
+
 def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
     """Per preset: tracking and push metrics (mean/std over seeds), sim-to-sim deltas, and which files exist."""
     ev = os.path.join(work, "eval")
@@ -85,6 +94,7 @@ def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
             gaits = sorted({g for u in usage for g in u})
             entry["tracking"][task]["gait_usage"] = {g: statistics.fmean(u.get(g, 0.0) for u in usage) for g in gaits}
             entry["tracking"][task]["outside_training_range"] = any(r.get("outside_training_range") for r in rs)
+            entry["tracking"][task]["command_variance"] = _command_variance(rs[0])
         for (lvl, task), rs in push.items():
             stats = {m: _stat([r.get(m) for r in rs]) for m in ("upright", "falls")}
             entry["push"].setdefault(str(lvl), {})[task] = stats
@@ -169,8 +179,13 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
         if hits:
             figures[kind] = hits[0]
     training = {p: {s: _train_info(work, p, s) for s in seeds} for p in presets}
+    eval_s = 0.0
+    for name in copied:
+        if name.endswith(".json"):
+            eval_s += float(_load(os.path.join(res_dir, name)).get("wall_time_s") or 0.0)
     summary = {"budget": budget_name, "sizes": asdict(budget), "presets": presets, "seeds": seeds,
-               "wall_time_s": wall_s, "training": training, "figures": figures, **data}  # fmt: skip
+               "wall_time_s": wall_s, "evaluation_wall_time_s": eval_s, "training": training, "figures": figures,
+               **data}  # fmt: skip
     write_result_json(os.path.join(res_dir, "results.json"), summary)
     md = render_markdown(summary, budget_name, budget, res_dir, out, work, git_state())
     tmp = os.path.join(out, "RESULTS.md.tmp")
@@ -210,6 +225,13 @@ def _ordering_checks(summary: dict) -> list[str]:
                      f"({powers[hi]:.1f} W) -> {'agrees' if hi == 'pmtg' else 'differs'}")  # fmt: skip
         lines.append(f"- lowest mean power over the three tasks: paper Ours; here {PAPER_NAMES[lo]} "
                      f"({powers[lo]:.1f} W) -> {'agrees' if lo == 'ours' else 'differs'}")  # fmt: skip
+    for p in have:
+        for task in ("vx", "vy", "wz"):
+            mse, var = metric(p, task, "mse"), pres[p]["tracking"].get(task, {}).get("command_variance")
+            if mse is not None and var and mse >= 0.5 * var:
+                lines.append(f"- {PAPER_NAMES[p]}: {PLAIN_NAMES[task]} MSE {mse:.3f} against {var:.3f} for a robot "
+                             "that does not follow the command at all: this task is not tracked, and its power is "
+                             "not the power of doing it")  # fmt: skip
     for p in have:
         per_task = {t: metric(p, t, "mean_p_cost") for t in ("vx", "vy", "wz")}
         if all(v is not None for v in per_task.values()):
@@ -323,8 +345,13 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
                   f"![timeline]({rel}/{summary['figures']['timeline']})"]  # fmt: skip
     if "energymap" in summary["figures"]:
         em = _load(os.path.join(res_dir, summary["figures"]["energymap"].replace(".png", ".json")))
-        agree = (f" The predicted winner matches the measured one in {100 * em['winner_agreement']:.0f} % of the "
-                 "cells." if em else "")  # fmt: skip
+        agree = ""
+        if em:
+            bad, limit = em.get("cheapest_does_not_track", "?"), em.get("tracking_limit", "?")
+            agree = (f" The predicted winner matches the measured one in {100 * em['winner_agreement']:.0f} % of "
+                     f"the cells; in {bad} of {len(em['cells'])} cells the cheapest gait does not track its command "
+                     f"(squared velocity error above {limit}), so energy alone picks a gait that fails the "
+                     "task there.")  # fmt: skip
         lines += ["", "## Gait energy map (Ours)", "",
                   "Each gait forced on its own robot at every command of two planes, (v_x, v_y) and (v_x, w): "
                   "measured p_cost (the predictor's estimate in brackets) and the winning gait." + agree, "",
@@ -337,5 +364,8 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
             rw = info.get("final_mean_reward")
             lines.append(f"| {PAPER_NAMES[p]} | {s} | {f'{wt / 60:.0f} min' if wt else '-'} | "
                          f"{f'{rw:.1f}' if rw is not None else '-'} |")  # fmt: skip
-    lines += ["", f"Reproduction wall time of this invocation: {summary['wall_time_s'] / 60:.0f} min.", ""]
+    train_s = sum(i.get("wall_time_s") or 0.0 for per in summary["training"].values() for i in per.values())
+    eval_s = summary.get("evaluation_wall_time_s", 0.0)
+    lines += ["", f"Compute (sum of the stages' wall times on this machine): training {train_s / 60:.0f} min, "
+              f"evaluation {eval_s / 60:.0f} min.", ""]  # fmt: skip
     return "\n".join(lines)
