@@ -179,6 +179,17 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
         if hits:
             figures[kind] = hits[0]
     training = {p: {s: _train_info(work, p, s) for s in seeds} for p in presets}
+    for p in presets:  # each training's configuration and its log (one line per 10 iterations and the summary)
+        for sd in seeds:
+            base = os.path.join(work, "train", f"{p}_s{sd}")
+            if os.path.isfile(os.path.join(base, "config.json")):
+                dst = os.path.join(res_dir, f"{p}_s{sd}_train_config.json")
+                shutil.copyfile(os.path.join(base, "config.json"), dst)
+            if os.path.isfile(base + ".log"):
+                with open(base + ".log", encoding="utf-8", errors="replace") as f:
+                    text = "\n".join(line.split("\r")[-1] for line in f.read().splitlines())
+                with open(os.path.join(res_dir, f"{p}_s{sd}_train.log"), "w", encoding="utf-8") as f:
+                    f.write(text + "\n")
     eval_s = 0.0
     for name in copied:
         if name.endswith(".json"):
