@@ -170,7 +170,10 @@ def draw(out: dict, path: str) -> None:
     ax[2].legend(loc="upper right", fontsize=8)
     ax[3].plot(t, s["p_cost_legs"], lw=1, label="legs")
     ax[3].plot(t, s["p_cost_wheels"], lw=1, label="wheels")
-    ax[3].set_ylabel("p_cost [W]")
+    settled = t >= min(0.5, t[-1] / 2)  # robots spawn slightly above the ground: the first landing dwarfs the rest
+    top = max(np.max(np.asarray(s["p_cost_legs"])[settled]), np.max(np.asarray(s["p_cost_wheels"])[settled]))
+    ax[3].set_ylim(0, 1.15 * top + 1.0)
+    ax[3].set_ylabel("p_cost [W]\n(spawn landing clipped)")
     ax[3].set_xlabel("time [s]")
     ax[3].legend(loc="upper right", fontsize=8)
     fig.suptitle(f"{out['preset']} (iteration {out['iteration']}), robot 0")

@@ -124,7 +124,8 @@ def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "v
             stats = [res.get(t, {}).get(metric) for t in tasks]
             mean = [s["mean"] if s else np.nan for s in stats]
             std = [s["std"] if s and s["n"] > 1 else 0.0 for s in stats]
-            ax.bar(x + k * width, mean, width, yerr=std, capsize=2, label=label)
+            spread = std if any(v > 0 for v in std) else None  # one seed: no error bars
+            ax.bar(x + k * width, mean, width, yerr=spread, capsize=2, label=label)
     for ax, title in zip(axes, ("tracking MSE of the task's axis", "mean power p_cost [W]"), strict=True):
         ax.set_xticks(x + width * (len(runs) - 1) / 2)
         ax.set_xticklabels([f"{TASK_NAMES[t]} task" for t in tasks])
