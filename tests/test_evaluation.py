@@ -114,3 +114,32 @@ def test_run_task_pushes_on_schedule_and_holds_its_commands(tmp_path):
     assert max(float(v.abs().max()) for v in seen) <= 0.6 and r.max_push == 0.6
     expected = spread_commands("vy", 3).to(env.device)
     assert all(torch.equal(c, expected) for c in commands)
+
+
+def test_a_loaded_checkpoint_starts_the_same_whatever_torch_drew_before(tmp_path):
+    """The env observes and selects gaits with the networks it is built with; after a checkpoint is loaded the first
+    observation and the gait each robot is reset into must come from the loaded ones, not from torch's global RNG."""
+    import contextlib
+    import io
+
+    from wqwarp.config import TrainConfig
+    from wqwarp.env import WheeledGo1Env
+    from wqwarp.evaluation import start_rollout
+    from wqwarp.play import make_policy_runner
+    from wqwarp.runner import WqRunner
+
+    cfg = make_preset("ours")
+    cfg.sim.num_envs = 2
+    torch.manual_seed(0)
+    with contextlib.redirect_stdout(io.StringIO()):
+        WqRunner(WheeledGo1Env(cfg), TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu").save(
+            str(tmp_path / "model_0.pt")
+        )
+    first = []
+    for seed in (1, 2, 3):
+        torch.manual_seed(seed)  # different random initialisation of the networks the env is built with
+        pr = make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=4, seed=5)
+        obs = start_rollout(pr.env, torch.zeros(4, 3), 1.0)
+        first.append((obs["policy"].clone(), pr.env.requested_gait().clone()))
+    for o, g in first[1:]:
+        assert torch.equal(o, first[0][0]) and torch.equal(g, first[0][1])

@@ -255,6 +255,15 @@ class WheeledGo1Env(VecEnv):
         self._obs = self._observe()
         return self._obs
 
+    def refresh_after_load(self) -> None:
+        """Observe again, with every robot due for a gait selection, after networks were loaded into the env: the
+        estimate in o_t and the gait each robot is reset into would otherwise come from the networks the env was
+        built with (random initialisation), so the first seconds of a rollout would depend on torch's global RNG."""
+        due = getattr(self.gait_selector, "due", None)
+        if due is not None:
+            due[:] = True
+        self._obs = self._observe()
+
     def _observe(self) -> TensorDict:
         """o_t and the critic's observation, then the gait selection that reads o_t."""
         obs = self._compute_observations()

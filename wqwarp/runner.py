@@ -138,6 +138,7 @@ class WqRunner(OnPolicyRunner):
             self.env.gait_selector.load_state_dict(infos["gait_selector"])
         elif self.env.gait_selector.name == "predictive":
             raise ValueError(f"{path} holds no power predictor; it cannot drive the predictive gait selection")
+        self.env.refresh_after_load()
         return infos
 
 
