@@ -177,21 +177,14 @@ def test_settings_added_later_are_filled_with_the_old_behaviour_and_reported():
         env_config_from_dict(d)
 
 
-def test_evaluation_builds_the_env_from_the_checkpoints_own_configuration(tmp_path):
-    import contextlib
-    import io
-
-    from wqwarp.config import TrainConfig
+def test_evaluation_builds_the_env_from_the_checkpoints_own_configuration(tmp_path, save_checkpoint):
     from wqwarp.play import make_policy_runner
-    from wqwarp.runner import WqRunner
 
     cfg = make_preset("no_predictor")
     cfg.sim.num_envs, cfg.sim.dt, cfg.sim.decimation = 2, 0.001, 20
     cfg.action.phase_residual_mode = "increment"
     cfg.reward.energy = -3e-4
-    with contextlib.redirect_stdout(io.StringIO()):
-        runner = WqRunner(WheeledGo1Env(cfg), TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu")
-    runner.save(str(tmp_path / "model_0.pt"))
+    save_checkpoint(tmp_path / "model_0.pt", cfg)
     pr = make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=3)
     got = pr.env.cfg
     assert (got.sim.dt, got.sim.decimation, got.action.phase_residual_mode) == (0.001, 20, "increment")

@@ -3,8 +3,6 @@ and writes nothing. Offscreen OpenGL through EGL (mesa's software renderer on a 
 
 from __future__ import annotations
 
-import contextlib
-import io
 import os
 import subprocess
 import sys
@@ -21,19 +19,13 @@ def _run(*args, env=None):
 
 
 @pytest.fixture(scope="module")
-def checkpoint(tmp_path_factory) -> str:
+def checkpoint(tmp_path_factory, save_checkpoint) -> str:
     """An untrained 'ours' checkpoint (configuration, policy, estimator, predictor), as train/ppo_newton.py saves."""
-    from wqwarp.config import TrainConfig, make_preset
-    from wqwarp.env import WheeledGo1Env
-    from wqwarp.runner import WqRunner
+    from wqwarp.config import make_preset
 
     cfg = make_preset("ours")
     cfg.sim.num_envs = 2
-    with contextlib.redirect_stdout(io.StringIO()):
-        runner = WqRunner(WheeledGo1Env(cfg), TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu")
-    path = str(tmp_path_factory.mktemp("ckpt") / "model_0.pt")
-    runner.save(path)
-    return path
+    return save_checkpoint(tmp_path_factory.mktemp("ckpt") / "model_0.pt", cfg)
 
 
 def _frames(path) -> list[np.ndarray]:

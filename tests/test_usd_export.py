@@ -180,22 +180,13 @@ def test_bad_input_exits_2_without_a_file(tmp_path):
 
 
 @pytest.fixture(scope="module")
-def checkpoint(tmp_path_factory) -> str:
+def checkpoint(tmp_path_factory, save_checkpoint) -> str:
     """An untrained 'ours' checkpoint (configuration, policy, estimator, predictor), as train/ppo_newton.py saves."""
-    import contextlib
-    import io
-
-    from wqwarp.config import TrainConfig, make_preset
-    from wqwarp.env import WheeledGo1Env
-    from wqwarp.runner import WqRunner
+    from wqwarp.config import make_preset
 
     cfg = make_preset("ours")
     cfg.sim.num_envs = 1
-    with contextlib.redirect_stdout(io.StringIO()):
-        runner = WqRunner(WheeledGo1Env(cfg), TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu")
-    path = str(tmp_path_factory.mktemp("ckpt") / "model_0.pt")
-    runner.save(path)
-    return path
+    return save_checkpoint(tmp_path_factory.mktemp("ckpt") / "model_0.pt", cfg)
 
 
 def test_a_checkpoint_is_played_with_its_commands_held(tool, checkpoint, tmp_path, capsys):

@@ -16,6 +16,7 @@ stay as saved.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -35,8 +36,8 @@ def parse_segments(text: str) -> list[tuple[tuple[float, float, float], float]]:
             s = float(sec)
         except ValueError:
             raise ValueError(f"bad segment {part!r}: expected 'vx,vy,wz:seconds'") from None
-        if len(v) != 3 or s <= 0:
-            raise ValueError(f"bad segment {part!r}: expected three velocities and seconds > 0")
+        if len(v) != 3 or not all(math.isfinite(x) for x in (*v, s)) or s <= 0:
+            raise ValueError(f"bad segment {part!r}: expected three finite velocities and seconds > 0")
         out.append((v, s))
     if not out:
         raise ValueError("no segments given")

@@ -71,17 +71,6 @@ class UsageError(Exception):
     """Bad input or missing prerequisite: printed as ``error: ...``, exit status 2."""
 
 
-def parse_command(text: str) -> tuple[float, float, float]:
-    """``"vx,vy,wz"`` -> (vx, vy, wz); ValueError otherwise."""
-    try:
-        v = tuple(float(x) for x in text.split(","))
-    except ValueError:
-        v = ()
-    if len(v) != 3 or not all(math.isfinite(x) for x in v):
-        raise ValueError(f"bad command {text!r}: expected 'vx,vy,wz', e.g. 0.6,0,0")
-    return v  # type: ignore[return-value]
-
-
 def select_gl_backend() -> str:
     """Set ``MUJOCO_GL`` before mujoco is imported: the user's value if set, else the first of :data:`GL_BACKENDS`
     that renders in a subprocess (a backend that cannot load can break ``import mujoco`` itself). UsageError naming
@@ -327,7 +316,7 @@ def check_args(args) -> list[tuple[tuple[float, float, float], float]]:
         else:
             if not (math.isfinite(args.seconds) and args.seconds > 0):
                 raise UsageError(f"--seconds must be > 0, got {args.seconds}")
-            segments = [(parse_command(args.command), args.seconds)]
+            segments = parse_segments(f"{args.command}:{args.seconds}")  # one segment: the command held
     except ValueError as e:
         raise UsageError(f"{'--segments' if args.segments is not None else '--command'}: {e}") from None
     if sum(round(s * POLICY_HZ) for _, s in segments) < POLICY_HZ // args.fps:

@@ -196,83 +196,57 @@ def stage_train(args, budget: Budget, preset: str, seed: int) -> bool:
     return _run(cmd, d + ".log", f"train {preset} seed {seed}", r"\] (\d+/\d+ ETA [0-9:]+)") and os.path.isfile(final)
 
 
-def _evaluate(args, budget: Budget, preset: str, seed: int, name: str, extra: list[str]) -> bool:
-    out = os.path.join(args.work, "eval", f"{preset}_s{seed}_{name}.json")
-    if os.path.isfile(out):
+PREDICTIVE_ONLY = ("sim2sim", "timeline", "energymap")
+"""Stages run for ``ours`` only (the sim-to-sim check, and the figures of the gait selection)."""
+
+
+def _stage(args, budget: Budget, preset: str, seed: int, name: str, script: str, extra: list[str],
+           png: bool = False) -> bool:  # fmt: skip
+    """Run ``script`` (a path under the repository) on the preset's final checkpoint unless its result
+    ``eval/<preset>_s<seed>_<name>.json`` (and ``.png`` with ``png``) is there already; True when it is."""
+    if name in PREDICTIVE_ONLY and preset != "ours":
+        return True
+    out = os.path.join(args.work, "eval", f"{preset}_s{seed}_{name}")
+    files = [out + ".json"] + ([out + ".png"] if png else [])
+    if all(os.path.isfile(f) for f in files):  # all of them, or the stage runs again
         return True
     ckpt = final_checkpoint(args.work, preset, seed, budget)
     if not os.path.isfile(ckpt):
         print(f"  skip {name} of {preset} seed {seed}: no trained checkpoint {ckpt}")
         return False
-    cmd = [os.path.join(ROOT, "train", "evaluate.py"), "--checkpoint", ckpt, "--preset", preset,
-           "--device", args.device, "--seed", str(seed), "--json", out, *extra]  # fmt: skip
-    return _run(cmd, os.path.join(args.work, "eval", f"{preset}_s{seed}_{name}.log"), f"{name} {preset} seed {seed}")
+    cmd = [os.path.join(ROOT, script), "--checkpoint", ckpt, "--device", args.device, "--seed", str(seed),
+           "--json", out + ".json", *(["--png", out + ".png"] if png else []), *extra]  # fmt: skip
+    return _run(cmd, out + ".log", f"{name} {preset} seed {seed}")
 
 
 def stage_tracking(args, budget: Budget, preset: str, seed: int) -> bool:
-    return _evaluate(
-        args,
-        budget,
-        preset,
-        seed,
-        "tracking",
-        ["--tasks", "stand,vx,vy,wz", "--num-envs", str(budget.eval_envs), "--seconds", str(budget.eval_seconds)],
-    )
+    return _stage(args, budget, preset, seed, "tracking", "train/evaluate.py", [
+        "--preset", preset, "--tasks", "stand,vx,vy,wz", "--num-envs", str(budget.eval_envs),
+        "--seconds", str(budget.eval_seconds)])  # fmt: skip
 
 
 def stage_push(args, budget: Budget, preset: str, seed: int) -> bool:
-    return _evaluate(args, budget, preset, seed, "push", [
-        "--protocol", "push", "--num-envs", str(budget.push_envs), "--seconds", str(budget.push_seconds),
-        "--push-interval", str(budget.push_interval)])  # fmt: skip
+    return _stage(args, budget, preset, seed, "push", "train/evaluate.py", [
+        "--preset", preset, "--protocol", "push", "--num-envs", str(budget.push_envs),
+        "--seconds", str(budget.push_seconds), "--push-interval", str(budget.push_interval)])  # fmt: skip
 
 
 def stage_sim2sim(args, budget: Budget, preset: str, seed: int) -> bool:
-    if preset != "ours":
-        return True
-    return _evaluate(args, budget, preset, seed, "sim2sim", [
-        "--tasks", "vx,vy,wz", "--num-envs", str(budget.sim2sim_envs), "--seconds", str(budget.eval_seconds),
-        "--physics", SIM2SIM_PHYSICS])  # fmt: skip
-
-
-def _tool(args, budget, preset, seed, name, script, extra) -> bool:
-    if preset != "ours":
-        return True
-    out = os.path.join(args.work, "eval", f"{preset}_s{seed}_{name}")
-    if os.path.isfile(out + ".json") and os.path.isfile(out + ".png"):  # both, or the stage runs again
-        return True
-    ckpt = final_checkpoint(args.work, preset, seed, budget)
-    if not os.path.isfile(ckpt):
-        print(f"  skip {name} of {preset} seed {seed}: no trained checkpoint {ckpt}")
-        return False
-    cmd = [os.path.join(ROOT, "tools", script), "--checkpoint", ckpt, "--device", args.device,
-           "--json", out + ".json", "--png", out + ".png", *extra]  # fmt: skip
-    return _run(cmd, out + ".log", f"{name} {preset} seed {seed}")
+    return _stage(args, budget, preset, seed, "sim2sim", "train/evaluate.py", [
+        "--preset", preset, "--tasks", "vx,vy,wz", "--num-envs", str(budget.sim2sim_envs),
+        "--seconds", str(budget.eval_seconds), "--physics", SIM2SIM_PHYSICS])  # fmt: skip
 
 
 def stage_timeline(args, budget: Budget, preset: str, seed: int) -> bool:
     s = budget.timeline_seconds
     segments = f"0,0,0:{s};0.8,0,0:{s};0,0,0.6:{s};0,0.4,0:{s}"  # the paper's Fig. 6: stand, forward, rotate, lateral
-    return _tool(
-        args,
-        budget,
-        preset,
-        seed,
-        "timeline",
-        "gait_sequence.py",
-        ["--segments", segments, "--robots", "1", "--seed", str(seed)],
-    )
+    return _stage(args, budget, preset, seed, "timeline", "tools/gait_sequence.py",
+                  ["--segments", segments, "--robots", "1"], png=True)  # fmt: skip
 
 
 def stage_energymap(args, budget: Budget, preset: str, seed: int) -> bool:
-    return _tool(
-        args,
-        budget,
-        preset,
-        seed,
-        "energymap",
-        "gait_energy_map.py",
-        ["--seconds", str(budget.map_seconds), "--grid", str(budget.map_grid), "--seed", str(seed)],
-    )
+    return _stage(args, budget, preset, seed, "energymap", "tools/gait_energy_map.py",
+                  ["--seconds", str(budget.map_seconds), "--grid", str(budget.map_grid)], png=True)  # fmt: skip
 
 
 def main(argv=None) -> int:
