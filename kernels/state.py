@@ -112,3 +112,40 @@ def gather_actuated(
     world, j = wp.tid()
     actuated_q[world, j] = joint_q[world, coord_index[j]]
     actuated_qd[world, j] = joint_qd[world, dof_index[j]]
+
+
+@wp.kernel
+def scatter_state_rows(
+    env_ids: wp.array(dtype=wp.int32),
+    q_rows: wp.array2d(dtype=wp.float32),
+    qd_rows: wp.array2d(dtype=wp.float32),
+    # outputs
+    joint_q: wp.array2d(dtype=wp.float32),
+    joint_qd: wp.array2d(dtype=wp.float32),
+):
+    """Write row i of ``q_rows`` (k, nq) / ``qd_rows`` (k, nv) into robot ``env_ids[i]`` of ``joint_q`` / ``joint_qd``
+    (indexed reset or state overwrite on the device, no host round trip)."""
+    i = wp.tid()
+    world = env_ids[i]
+    for k in range(joint_q.shape[1]):
+        joint_q[world, k] = q_rows[i, k]
+    for k in range(joint_qd.shape[1]):
+        joint_qd[world, k] = qd_rows[i, k]
+
+
+@wp.kernel
+def clear_contact_rows(
+    env_ids: wp.array(dtype=wp.int32),
+    # outputs
+    wheel_force: wp.array2d(dtype=wp.float32),
+    wheel_contact: wp.array2d(dtype=wp.int32),
+    body_collision: wp.array2d(dtype=wp.int32),
+):
+    """Zero the contact summaries (wheel forces and flags, body-collision flags) of robots ``env_ids``."""
+    i = wp.tid()
+    world = env_ids[i]
+    for k in range(wheel_force.shape[1]):
+        wheel_force[world, k] = 0.0
+        wheel_contact[world, k] = 0
+    for k in range(body_collision.shape[1]):
+        body_collision[world, k] = 0

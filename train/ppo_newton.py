@@ -82,11 +82,21 @@ def parse_args(argv=None) -> argparse.Namespace:
         help="physics steps per 50 Hz policy step (default 4; the paper's dt 0.001 needs 20)",
     )
     p.add_argument(
+        "--threads",
+        type=int,
+        default=None,
+        help="CPU threads of torch and of the physics together (default: torch 1, physics every core, shared "
+        "among torchrun's processes; measured within 1.2x of the best setting idle and with a core busy, README "
+        "'Threads'). More torch threads than free cores slows training 5-7x when anything else runs",
+    )
+    p.add_argument(
         "--torch-threads",
         type=int,
-        default=0,
-        help="torch CPU threads (default 0: torch's own choice); 1 avoids oversubscription when other jobs share "
-        "the cores",
+        default=None,
+        help="torch intra-op threads during collection and the PPO update (overrides --threads)",
+    )
+    p.add_argument(
+        "--physics-threads", type=int, default=None, help="mujoco.rollout threads (CPU; overrides --threads)"
     )
     p.add_argument(
         "--true-state",
@@ -175,6 +185,8 @@ class Progress:
         original = logger.log
 
         def log(**kw):
+            if logger.writer is None:  # ranks other than 0 under torchrun: nothing to show
+                return original(**kw)
             ep = {}
             for info in logger.ep_extras:
                 for k, v in info.items():
@@ -228,11 +240,14 @@ def main(argv=None) -> int:
         fail("--num-envs, --max-iterations, --save-interval and --num-steps-per-env must be positive")
     if args.resume and not os.path.isfile(args.resume):
         fail(f"--resume: no such checkpoint {args.resume!r}")
+    for name in ("threads", "torch_threads", "physics_threads"):
+        if getattr(args, name) is not None and getattr(args, name) < 1:
+            fail(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
     world = int(os.getenv("WORLD_SIZE", "1"))
     rank = int(os.getenv("RANK", "0"))
     device = args.device
-    if world > 1:
-        device = f"cuda:{int(os.getenv('LOCAL_RANK', '0'))}"
+    if world > 1 and device.startswith("cuda"):
+        device = f"cuda:{int(os.getenv('LOCAL_RANK', '0'))}"  # one GPU per process
     if not (device == "cpu" or device.startswith("cuda")):
         fail(f"--device must be cpu or cuda:N, got {device!r}")
 
@@ -244,8 +259,9 @@ def main(argv=None) -> int:
     if device.startswith("cuda") and not wp.is_cuda_available():
         fail(f"--device {device}: no CUDA device is available to Warp")
     torch.manual_seed(args.seed + rank)
-    if args.torch_threads > 0:
-        torch.set_num_threads(args.torch_threads)
+    from wqwarp.threads import configure_threads
+
+    threads = configure_threads(args.threads, args.torch_threads, args.physics_threads)
 
     from wqwarp.config import TrainConfig, make_preset, to_dict
     from wqwarp.env import WheeledGo1Env
@@ -257,6 +273,7 @@ def main(argv=None) -> int:
     cfg.sim.device = device
     cfg.sim.dt = args.dt
     cfg.sim.decimation = args.decimation
+    cfg.sim.nthread = threads["physics"]
     cfg.seed = args.seed + rank
     cfg.estimator.use_true_state = args.true_state
     if args.phase_residual is not None:
@@ -290,14 +307,19 @@ def main(argv=None) -> int:
         fail(f"--temperature-iterations must be >= 0, got {args.temperature_iterations}")
     tcfg = TrainConfig(max_iterations=args.max_iterations, save_interval=args.save_interval,
                        num_steps_per_env=args.num_steps_per_env)  # fmt: skip
-    print(f"wqwarp: preset {args.preset}, {args.num_envs} robots on {device}, log dir {log_dir}", flush=True)
+    say = print if rank == 0 else (lambda *a, **k: None)
+    ranks = f" x {world} processes" if world > 1 else ""
+    say(f"wqwarp: preset {args.preset}, {args.num_envs} robots{ranks} on {device} (threads: torch {threads['torch']}, "
+        f"physics {threads['physics']}), log dir {log_dir}", flush=True)  # fmt: skip
     t_setup = time.time()
     env = WheeledGo1Env(cfg)
-    print(f"environment ready in {time.time() - t_setup:.1f} s ({env.num_obs} actor observations, "
+    say(f"environment ready in {time.time() - t_setup:.1f} s ({env.num_obs} actor observations, "
           f"{env.num_actions} actions)", flush=True)  # fmt: skip
-    os.makedirs(log_dir, exist_ok=True)
-    with open(os.path.join(log_dir, "config.json"), "w", encoding="utf-8") as f:
-        json.dump({"args": vars(args), "env": to_dict(cfg), "train": to_dict(tcfg)}, f, indent=2)
+    if rank == 0:
+        os.makedirs(log_dir, exist_ok=True)
+        with open(os.path.join(log_dir, "config.json"), "w", encoding="utf-8") as f:
+            json.dump({"args": vars(args), "threads": threads, "world_size": world, "env": to_dict(cfg),
+                       "train": to_dict(tcfg)}, f, indent=2)  # fmt: skip
     with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the full networks
         runner = WqRunner(env, tcfg.rsl_rl_dict(), log_dir=log_dir, device=device)
     if args.resume:
@@ -306,7 +328,7 @@ def main(argv=None) -> int:
         except ValueError as e:
             fail(str(e))
         runner.current_learning_iteration += 1  # continue after the checkpoint; never rewrite it
-        print(f"resumed from {args.resume} at iteration {runner.current_learning_iteration}", flush=True)
+        say(f"resumed from {args.resume} at iteration {runner.current_learning_iteration}", flush=True)
     start = runner.current_learning_iteration
     total = start + args.max_iterations if args.resume else args.max_iterations
     progress = Progress(runner, total, start)

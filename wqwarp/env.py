@@ -88,7 +88,6 @@ class WheeledGo1Env(VecEnv):
         self.episode_length_buf = torch.zeros(n, dtype=torch.long, device=dev)
         self.gen = torch.Generator(device=dev)
         self.gen.manual_seed(cfg.seed)
-        self._np_rng = np.random.default_rng(cfg.seed)
 
         a = cfg.action
         self.residual_mode = a.use_nominal_legs
@@ -122,6 +121,10 @@ class WheeledGo1Env(VecEnv):
         self.foot_residual_wp = wp.zeros((n, 4), dtype=wp.vec3, device=sim.device)
         self.default_leg_q = torch.tensor(C.DEFAULT_JOINT_POS[:12], dtype=torch.float32, device=dev)
         self.default_leg_q_wp = wp.from_torch(self.default_leg_q.clone())
+        spawn = torch.tensor(sim._default_q, dtype=torch.float32, device=dev)
+        spawn[2] += 0.02  # spawn slightly above the ground
+        self._spawn_q = spawn[None, :]
+        self._leg_coords = torch.tensor(sim.layout.actuated_coord[:12], dtype=torch.long, device=dev)
 
         # Rewards.
         self.reward_weights = wp.array(np.asarray(cfg.reward.weights(), np.float32), dtype=wp.float32,
@@ -327,16 +330,20 @@ class WheeledGo1Env(VecEnv):
 
     # --- resets, commands, pushes --------------------------------------------------------------------------------
     def _reset_envs(self, ids: torch.Tensor) -> None:
-        ids_np = ids.cpu().numpy().astype(np.int32)
-        lay = self.sim.layout
-        q = np.tile(self.sim._default_q, (len(ids_np), 1))
-        q[:, 2] += 0.02  # spawn slightly above the ground
-        yaw = self._np_rng.uniform(-math.pi, math.pi, len(ids_np))
-        q[:, 5], q[:, 6] = np.sin(yaw / 2), np.cos(yaw / 2)
-        q[:, lay.actuated_coord[:12]] += self._np_rng.uniform(-0.05, 0.05, (len(ids_np), 12)).astype(np.float32)
-        self.sim.reset(ids_np, q, np.zeros((len(ids_np), lay.dofs_per_world), np.float32))
+        """Reset robots ``ids`` (a tensor on the env's device): spawn pose with random yaw and leg angles, written
+        by kernels on the device (no host copy of the state)."""
+        k = len(ids)
+        sim = self.sim
+        q = self._spawn_q.expand(k, -1).clone()
+        yaw = self._uniform((-math.pi, math.pi), (k,))
+        q[:, 5], q[:, 6] = torch.sin(yaw / 2), torch.cos(yaw / 2)
+        q[:, self._leg_coords] += self._uniform((-0.05, 0.05), (k, 12))
+        ids32 = ids.to(torch.int32)
+        qd = torch.zeros(k, sim.layout.dofs_per_world, device=self.device)
+        self._reset_inputs = (ids32, q, qd)  # alive until the next reset: the device may still read them
+        sim.reset(ids32, q, qd)
         if self.nominal is not None:
-            self.nominal.reset(ids_np)
+            self.nominal.reset(ids32)
         self.gait_selector.on_reset(ids)
         self.actions[ids] = 0.0
         self.prev_actions[ids] = 0.0
@@ -391,16 +398,16 @@ class WheeledGo1Env(VecEnv):
         n = self.num_envs
         dv = self._uniform((-m, m), (n, 2))
         self.push_vel[:] = dv
-        q = self.tv["joint_q"].cpu().numpy().copy()
-        qd = self.tv["joint_qd"].cpu().numpy().copy()
-        # The impulse is along the trunk's x and y axes, written into the world-frame base velocity.
+        # The impulse is along the trunk's x and y axes, added to the world-frame base velocity in place (a view of
+        # Newton's state on the device); the physics is told which coordinates changed.
         quat = self.tv["joint_q"][:, 3:7]
         yaw = torch.atan2(2 * (quat[:, 3] * quat[:, 2] + quat[:, 0] * quat[:, 1]),
                           1 - 2 * (quat[:, 1] ** 2 + quat[:, 2] ** 2))  # fmt: skip
         c, s = torch.cos(yaw), torch.sin(yaw)
-        dvw = torch.stack([c * dv[:, 0] - s * dv[:, 1], s * dv[:, 0] + c * dv[:, 1]], 1).cpu().numpy()
-        qd[:, 0:2] += dvw
-        self.sim.set_state(np.arange(n), q, qd)
+        qd = self.tv["joint_qd"]
+        qd[:, 0] += c * dv[:, 0] - s * dv[:, 1]
+        qd[:, 1] += s * dv[:, 0] + c * dv[:, 1]
+        self.sim.state_written()
 
     # --- observations ---------------------------------------------------------------------------------------------
     def _gait_obs(self) -> torch.Tensor:

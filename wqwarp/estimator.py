@@ -64,7 +64,7 @@ class EstimatorTrainer:
         y = torch.cat(self._targets)
         self._inputs.clear()
         self._targets.clear()
-        losses = []
+        total, count = torch.zeros((), device=x.device), 0
         with torch.inference_mode(False), torch.enable_grad():
             x, y = x.clone(), y.clone()  # leave inference mode (the runner collects under torch.inference_mode)
             for _ in range(self.epochs):
@@ -75,6 +75,7 @@ class EstimatorTrainer:
                     self.optimizer.zero_grad()
                     loss.backward()
                     self.optimizer.step()
-                    losses.append(loss.item())
-        self.last_loss = float(sum(losses) / max(len(losses), 1))
+                    total += loss.detach()
+                    count += 1
+        self.last_loss = float(total) / max(count, 1)  # one device -> host copy per fit
         return self.last_loss

@@ -423,7 +423,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
         cfg, p = self.cfg, self.predictor
         with torch.inference_mode(False), torch.enable_grad():
             self._update_normalization()
-            losses = []
+            total = torch.zeros((), device=r.y.device)
             for _ in range(cfg.updates_per_iteration):
                 idx = torch.randint(0, r.n, (min(cfg.batch_size, r.n),), generator=self.gen, device=r.y.device)
                 x, g, y = r.obs[idx].clone(), r.gait[idx].clone(), r.y[idx].clone()
@@ -433,8 +433,8 @@ class PredictiveGaitSelector(FixedGaitSelector):
                 self.optimizer.zero_grad()
                 loss.backward()
                 self.optimizer.step()
-                losses.append(loss.item())
-        out = {"loss": sum(losses) / len(losses)}
+                total += loss.detach()
+        out = {"loss": float(total) / cfg.updates_per_iteration}  # one device -> host copy per fit
         out.update(self.holdout_errors())
         self.last_losses = out
         return out

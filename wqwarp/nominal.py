@@ -65,17 +65,19 @@ class NominalGait:
         return gait_index(name, self.library)
 
     def reset(self, env_ids, gait_id: int | np.ndarray | None = None) -> None:
-        """Restart the phases of ``env_ids`` in gait ``gait_id`` (default: the currently requested gait)."""
-        ids = np.asarray(env_ids, dtype=np.int32).reshape(-1)
-        if ids.size == 0:
+        """Restart the phases of ``env_ids`` in gait ``gait_id`` (default: the currently requested gait).
+        ``env_ids`` may be a Warp array or torch tensor on the device (no host copy) or a list / NumPy array."""
+        from wqwarp.sim.backend import index_array
+
+        ids = index_array(env_ids, self.device, self.world_count)
+        if ids.shape[0] == 0:
             return
         if gait_id is not None:
+            rows = ids.numpy()
             g = self.gait_id.numpy()
-            g[ids] = gait_id
+            g[rows] = gait_id
             self.gait_id.assign(g)
-        gait_kernels.reset_nominal_gait(
-            self.state, wp.array(ids, dtype=wp.int32, device=self.device), self.gait_id, self.arrays
-        )
+        gait_kernels.reset_nominal_gait(self.state, ids, self.gait_id, self.arrays)
 
     def step(self, leg_joint_pos: wp.array, wheel_contact: wp.array, dt: float) -> None:
         """Advance one policy step of length ``dt`` [s] from the measured leg joints (W, 12) [rad] and wheel

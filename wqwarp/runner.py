@@ -55,11 +55,20 @@ class WqRunner(OnPolicyRunner):
         """Losses of the last auxiliary fit (estimator, predictor)."""
         self.last_gait_scalars: dict[str, float] = {}
         """``Gait/*`` and ``Predictor/*`` scalars of the last iteration (also on the console)."""
+        self.update_threads: int | None = None
+        """Torch intra-op threads during the PPO update and the auxiliary fits (None: leave torch's setting);
+        collection keeps torch's setting (``wqwarp.threads``: the physics threads run then)."""
         ppo_update = self.alg.update
 
         def update(*args, **kwargs):
-            loss_dict = ppo_update(*args, **kwargs)
-            loss_dict.update(self.fit_auxiliary())
+            before = torch.get_num_threads()
+            if self.update_threads:
+                torch.set_num_threads(self.update_threads)
+            try:
+                loss_dict = ppo_update(*args, **kwargs)
+                loss_dict.update(self.fit_auxiliary())
+            finally:
+                torch.set_num_threads(before)
             return loss_dict
 
         self.alg.update = update
@@ -73,6 +82,25 @@ class WqRunner(OnPolicyRunner):
             return log(**kw)
 
         self.logger.log = log_with_gait
+
+    def _configure_multi_gpu(self) -> None:
+        """rsl-rl's multi-GPU set-up, and the same on CPU: under torchrun with ``device="cpu"`` every rank joins a
+        ``gloo`` process group (rsl-rl itself requires ``cuda:<LOCAL_RANK>`` and NCCL); PPO then averages gradients
+        across ranks exactly as on GPUs."""
+        world = int(os.getenv("WORLD_SIZE", "1"))
+        if world <= 1 or str(self.device) != "cpu":
+            super()._configure_multi_gpu()
+            return
+        import torch.distributed as dist
+
+        self.gpu_world_size = world
+        self.is_distributed = True
+        self.gpu_local_rank = int(os.getenv("LOCAL_RANK", "0"))
+        self.gpu_global_rank = int(os.getenv("RANK", "0"))
+        self.cfg["multi_gpu"] = {"global_rank": self.gpu_global_rank, "local_rank": self.gpu_local_rank,
+                                 "world_size": world}  # fmt: skip
+        if not dist.is_initialized():
+            dist.init_process_group(backend="gloo", rank=self.gpu_global_rank, world_size=world)
 
     def fit_auxiliary(self) -> dict[str, float]:
         """Fit the state estimator and the power predictor on the rollout just collected; keep them identical

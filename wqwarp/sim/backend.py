@@ -32,10 +32,32 @@ from wqwarp import constants as C
 from wqwarp import robot
 from wqwarp.kernels import actuation, power
 from wqwarp.kernels.contacts import accumulate_newton_contacts, contacts_from_sensordata
-from wqwarp.kernels.state import gather_actuated, mujoco_state_to_newton, newton_state_to_mujoco
+from wqwarp.kernels.state import (
+    clear_contact_rows,
+    gather_actuated,
+    mujoco_state_to_newton,
+    newton_state_to_mujoco,
+    scatter_state_rows,
+)
 
 BACKENDS = ("auto", "mujoco_cpu", "mujoco_warp")
 JOINT_MODELS = ("asset", "authors")
+
+
+def index_array(env_ids, device, count: int) -> wp.array:
+    """Robot indices as an int32 Warp array on ``device``. A Warp array or a torch tensor already on the device is
+    used in place (no host round trip, no range check); a list or NumPy array is checked against ``[0, count)`` and
+    copied once."""
+    import torch
+
+    if isinstance(env_ids, wp.array):
+        return env_ids
+    if isinstance(env_ids, torch.Tensor):
+        return wp.from_torch(env_ids.reshape(-1).to(torch.int32).contiguous())
+    ids = np.asarray(env_ids, dtype=np.int32).reshape(-1)
+    if ids.size and (ids.min() < 0 or ids.max() >= count):
+        raise IndexError(f"env_ids out of range [0, {count})")
+    return wp.array(ids, dtype=wp.int32, device=device)
 
 
 def apply_joint_model(model, layout, name: str) -> None:
@@ -230,6 +252,9 @@ class Simulator:
                 actuated_qd=wp.zeros((n, 16), dtype=f32),
             )
             self._default_q = robot.default_joint_q(lay)
+            self.default_joint_q = wp.array(self._default_q, dtype=wp.float32)
+            """(23,) Newton coordinates of the default standing pose (device)."""
+            self._all_ids = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32)
             self._actuation_cmds = self._record_actuation()
             if self.backend == "mujoco_cpu":
                 self._init_mujoco_cpu()
@@ -302,53 +327,72 @@ class Simulator:
         wp.launch(gather_actuated, dim=(self.num_envs, 16), inputs=[self.joint_q, self.joint_qd, self.coord_index,
                   self.dof_index], outputs=[b.actuated_q, b.actuated_qd], device=self.device)  # fmt: skip
 
-    def reset(self, env_ids, joint_q: np.ndarray | None = None, joint_qd: np.ndarray | None = None) -> None:
+    def _ids(self, env_ids) -> wp.array:
+        return index_array(env_ids, self.device, self.num_envs)
+
+    def _rows(self, rows, k: int, width: int, what: str) -> wp.array:
+        """(k, width) float32 Warp array on the device from a Warp array, torch tensor or NumPy array."""
+        import torch
+
+        if isinstance(rows, torch.Tensor):
+            rows = wp.from_torch(rows.to(torch.float32).contiguous())
+        elif not isinstance(rows, wp.array):
+            rows = wp.array(np.ascontiguousarray(rows, dtype=np.float32), dtype=wp.float32, device=self.device)
+        if tuple(rows.shape) != (k, width):
+            raise ValueError(f"{what} must have shape {(k, width)}, got {tuple(rows.shape)}")
+        return rows
+
+    def reset(self, env_ids, joint_q=None, joint_qd=None) -> None:
         """Set robots ``env_ids`` to the given Newton coordinates ((k, 23) / (k, 22); default pose and rest if
-        omitted), zero their wheel PID state, recompute their body poses and clear their contact summaries."""
-        ids = np.asarray(env_ids, dtype=np.int32).reshape(-1)
-        if ids.size == 0:
+        omitted), zero their wheel PID state, recompute their body poses and clear their contact summaries.
+
+        ``env_ids`` and the coordinates may be Warp arrays or torch tensors on the simulator's device (what the
+        environment passes: the reset runs in kernels, with no host copy) or NumPy arrays / lists."""
+        ids = self._ids(env_ids)
+        k = ids.shape[0]
+        if k == 0:
             return
-        if ids.min() < 0 or ids.max() >= self.num_envs:
-            raise IndexError(f"env_ids out of range [0, {self.num_envs})")
         lay = self.layout
-        q = np.tile(self._default_q, (ids.size, 1)) if joint_q is None else np.asarray(joint_q, np.float32)
-        qd = (
-            np.zeros((ids.size, lay.dofs_per_world), np.float32)
-            if joint_qd is None
-            else np.asarray(joint_qd, np.float32)
-        )
-        if q.shape != (ids.size, lay.coords_per_world) or qd.shape != (ids.size, lay.dofs_per_world):
-            raise ValueError(f"reset expects joint_q {(ids.size, lay.coords_per_world)} and joint_qd "
-                             f"{(ids.size, lay.dofs_per_world)}, got {q.shape} and {qd.shape}")  # fmt: skip
-        self.set_state(ids, q, qd)
-        ids_wp = wp.array(ids, dtype=wp.int32, device=self.device)
-        actuation.launch_reset_wheel_pid(ids_wp, self.buf.wheel_integral, self.buf.wheel_prev_error, self.device)
-        for name in ("wheel_force", "wheel_contact", "body_collision"):
-            arr = getattr(self.buf, name)
-            host = arr.numpy()
-            host[ids] = 0
-            if not self.device.is_cpu:
-                arr.assign(host)
+        if joint_q is None:
+            joint_q = np.tile(self._default_q, (k, 1))
+        if joint_qd is None:
+            joint_qd = wp.zeros((k, lay.dofs_per_world), dtype=wp.float32, device=self.device)
+        self.set_state(ids, joint_q, joint_qd)
+        b = self.buf
+        actuation.launch_reset_wheel_pid(ids, b.wheel_integral, b.wheel_prev_error, self.device)
+        wp.launch(clear_contact_rows, dim=k, inputs=[ids], outputs=[b.wheel_force, b.wheel_contact, b.body_collision],
+                  device=self.device)  # fmt: skip
         import newton
 
-        newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state)
+        newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state, indices=ids)
         self._post_step()
 
-    def set_state(self, env_ids, joint_q: np.ndarray, joint_qd: np.ndarray) -> None:
-        """Overwrite the coordinates of robots ``env_ids`` mid-episode (e.g. a push), keeping controller state."""
-        ids = np.asarray(env_ids, dtype=np.int32).reshape(-1)
-        if ids.size == 0:
+    def set_state(self, env_ids, joint_q, joint_qd) -> None:
+        """Overwrite the coordinates of robots ``env_ids`` ((k, 23) / (k, 22)) mid-episode (e.g. a push), keeping
+        controller state. Accepts Warp arrays or torch tensors on the device (no host copy) or NumPy arrays."""
+        ids = self._ids(env_ids)
+        k = ids.shape[0]
+        if k == 0:
             return
-        jq, jqd = self.joint_q.numpy(), self.joint_qd.numpy()
-        jq[ids], jqd[ids] = joint_q, joint_qd
-        if not self.device.is_cpu:
-            self.joint_q.assign(jq)
-            self.joint_qd.assign(jqd)
-        if self.backend == "mujoco_cpu":
-            ids_wp = wp.array(ids, dtype=wp.int32, device=self.device)
-            wp.launch(newton_state_to_mujoco, dim=ids.size, inputs=[self.joint_q, self.joint_qd, ids_wp,
-                      self._mj_qpos_start, self._root_com], outputs=[self._mj_state_wp[self._parity]],
-                      device=self.device)  # fmt: skip
+        lay = self.layout
+        q = self._rows(joint_q, k, lay.coords_per_world, "joint_q")
+        qd = self._rows(joint_qd, k, lay.dofs_per_world, "joint_qd")
+        wp.launch(scatter_state_rows, dim=k, inputs=[ids, q, qd], outputs=[self.joint_q, self.joint_qd],
+                  device=self.device)  # fmt: skip
+        self.state_written(ids)
+
+    def state_written(self, env_ids=None) -> None:
+        """Tell the physics that ``joint_q`` / ``joint_qd`` of robots ``env_ids`` (default all) were written in place
+        (e.g. through :meth:`torch_views`): ``mujoco_cpu`` copies them into its MuJoCo states; ``mujoco_warp`` reads
+        Newton's state at every step and needs nothing."""
+        if self.backend != "mujoco_cpu":
+            return
+        ids = self._all_ids if env_ids is None else self._ids(env_ids)
+        if ids.shape[0] == 0:
+            return
+        wp.launch(newton_state_to_mujoco, dim=ids.shape[0], inputs=[self.joint_q, self.joint_qd, ids,
+                  self._mj_qpos_start, self._root_com], outputs=[self._mj_state_wp[self._parity]],
+                  device=self.device)  # fmt: skip
 
     def mujoco_qpos(self) -> np.ndarray:
         """(N, nq) MuJoCo ``qpos`` of every robot now, in the order of :attr:`mj_model` (``mujoco_cpu`` only): set it
