@@ -1,4 +1,6 @@
-"""Shared test settings: Warp quiet, CPU by default; ``WQWARP_TEST_DEVICE=cuda:0`` runs device tests on CUDA."""
+"""Shared test settings: Warp quiet; device tests run on every available device (Newton's ``get_test_devices``
+style: Warp's CPU device, and ``cuda:0`` where CUDA is present); ``WQWARP_TEST_DEVICE=cpu`` or ``=cuda:0,cuda:1``
+chooses the devices explicitly."""
 
 import os
 
@@ -8,9 +10,18 @@ import warp as wp
 wp.config.quiet = True
 
 
-@pytest.fixture(scope="session")
-def device() -> str:
-    return os.environ.get("WQWARP_TEST_DEVICE", "cpu")
+def test_devices() -> list[str]:
+    """Devices the device-parametrised tests run on."""
+    chosen = os.environ.get("WQWARP_TEST_DEVICE")
+    if chosen:
+        return [d.strip() for d in chosen.split(",") if d.strip()]
+    return ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+
+
+@pytest.fixture(scope="session", params=test_devices())
+def device(request) -> str:
+    """One test device per parametrisation: simulator, env and kernel tests run on each."""
+    return request.param
 
 
 def _save_untrained_checkpoint(path: str, cfg) -> str:

@@ -13,17 +13,18 @@ from wqwarp.env import PRIVILEGED_DIM, WheeledGo1Env, decode_observation, observ
 N = 4
 
 
-def _env(preset: str = "no_predictor", **over) -> WheeledGo1Env:
+def _env(preset: str = "no_predictor", device: str = "cpu", **over) -> WheeledGo1Env:
     cfg = make_preset(preset)
     cfg.sim.num_envs = N
+    cfg.sim.device = device
     for k, v in over.items():
         setattr(cfg, k, v)
     return WheeledGo1Env(cfg)
 
 
 @pytest.fixture(scope="module")
-def env():
-    return _env()
+def env(device):
+    return _env(device=device)
 
 
 def test_shapes_and_groups(env):
@@ -118,20 +119,20 @@ def test_reward_terms_sum_to_the_reward(env):
 
 
 @pytest.mark.parametrize("preset", sorted(PRESETS))
-def test_each_preset_builds_and_steps(preset):
-    env = _env(preset)
+def test_each_preset_builds_and_steps(preset, device):
+    env = _env(preset, device)
     assert env.num_actions == (16 if preset == "baseline" else 20)
     for _ in range(5):
-        obs, r, d, _ = env.step(torch.randn(N, env.num_actions) * 0.2)
+        obs, r, d, _ = env.step(torch.randn(N, env.num_actions, device=env.device) * 0.2)
     assert torch.isfinite(r).all()
     if preset == "pmtg":  # no nominal wheel velocity: wheel targets come from the policy only
-        env.step(torch.zeros(N, env.num_actions))
+        env.step(torch.zeros(N, env.num_actions, device=env.device))
         assert np.allclose(env.sim.wheel_qd_target.numpy(), 0.0)
     if preset == "no_predictor":
         env.reset()
         env.set_commands(torch.tensor([[0.6, 0.0, 0.0]] * N))
         for _ in range(10):  # robots spawn 2 cm up; wheels count once they touch down
-            env.step(torch.zeros(N, env.num_actions))
+            env.step(torch.zeros(N, env.num_actions, device=env.device))
         wheels = env.sim.wheel_qd_target.numpy()
         # Eq. (3) for wheels on the ground; a wheel in the air keeps its previous target (0 after the reset).
         on_target = np.isclose(wheels, 0.6 / 0.075, rtol=0.05)
@@ -222,8 +223,8 @@ def test_held_commands_reach_every_observation_also_after_resets():
     assert not torch.allclose(env.commands, cmd)
 
 
-def test_pushes_are_velocity_impulses_along_the_trunk_axes():
-    env = _env("no_predictor")  # robots spawn with random yaw
+def test_pushes_are_velocity_impulses_along_the_trunk_axes(device):
+    env = _env("no_predictor", device)  # robots spawn with random yaw
     before = env.tv["joint_qd"][:, :2].clone()
     q = env.tv["joint_q"][:, 3:7]
     yaw = torch.atan2(2 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2))

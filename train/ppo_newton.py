@@ -209,7 +209,8 @@ class Progress:
         r = self.runner.logger.rewbuffer
         mean = lambda k: sum(ep[k]) / len(ep[k]) if ep.get(k) else float("nan")  # noqa: E731
         gait = self.runner.last_gait_scalars
-        sps = self.runner.env.num_envs * self.runner.cfg["num_steps_per_env"] / max(collect + learn, 1e-9)
+        robots = self.runner.env.num_envs * self.runner.gpu_world_size  # all ranks under torchrun
+        sps = robots * self.runner.cfg["num_steps_per_env"] / max(collect + learn, 1e-9)
         self.metrics = {
             "iteration": it + 1, "mean_reward": statistics.mean(r) if len(r) else float("nan"),
             "vx_error": mean("Metrics/vx_error"), "vy_error": mean("Metrics/vy_error"),
@@ -344,6 +345,13 @@ def main(argv=None) -> int:
             return 130
         raise
     wall = time.time() - t0
+    sync = runner.ranks_in_sync()  # under torchrun: every rank must end with the same networks
+    if sync and rank == 0:
+        print("\nranks in sync (largest parameter difference to rank 0): "
+              + ", ".join(f"{k} {v:.1e}" for k, v in sync.items()), flush=True)  # fmt: skip
+    if any(v > 1e-5 for v in sync.values()):
+        print(f"error: the {world} ranks ended with different networks: {sync}", file=sys.stderr)
+        return 1
     last = os.path.join(log_dir, f"model_{runner.current_learning_iteration}.pt")
     exported = {}
     if rank == 0 and not args.no_export:

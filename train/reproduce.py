@@ -273,7 +273,7 @@ def main(argv=None) -> int:
         "--torch-threads",
         type=int,
         default=1,
-        help="torch CPU threads of each training process (default 1; physics uses all cores)",
+        help="torch CPU threads of each training process (default 1, as train/ppo_newton.py; physics uses all cores)",
     )
     args = p.parse_args(argv)
     budget = BUDGETS[args.budget]
@@ -283,9 +283,9 @@ def main(argv=None) -> int:
     presets = [x.strip() for x in args.presets.split(",") if x.strip()]
     stages = [x.strip() for x in args.stages.split(",") if x.strip()]
     bad = [x for x in presets if x not in PRESET_ORDER] + [x for x in stages if x not in STAGES]
-    if bad or not presets or not stages or args.seeds < 1 or args.torch_threads < 0:
-        print(f"error: unknown preset or stage {bad}, or --seeds < 1 (presets: {', '.join(PRESET_ORDER)}; stages: "
-              f"{', '.join(STAGES)})", file=sys.stderr)  # fmt: skip
+    if bad or not presets or not stages or args.seeds < 1 or args.torch_threads < 1:
+        print(f"error: unknown preset or stage {bad}, or --seeds / --torch-threads < 1 (presets: "
+              f"{', '.join(PRESET_ORDER)}; stages: {', '.join(STAGES)})", file=sys.stderr)  # fmt: skip
         return 2
     if args.device.startswith("cuda"):
         try:

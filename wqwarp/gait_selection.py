@@ -136,8 +136,8 @@ class WindowLabeler:
         self.obs = torch.zeros(num_envs, obs_dim, device=device)
         self.sum = torch.zeros(num_envs, device=device)
         self.length = torch.zeros(num_envs, dtype=torch.long, device=device)
-        self.dropped = 0
-        """Windows dropped since construction (reset or gait switch inside)."""
+        self.dropped = torch.zeros((), dtype=torch.long, device=device)
+        """Windows dropped since construction (reset or gait switch inside; a tensor: no host sync per step)."""
 
     def start(self, obs: torch.Tensor, active: torch.Tensor, requested: torch.Tensor) -> None:
         new = ~self.open & (active == requested)
@@ -151,7 +151,7 @@ class WindowLabeler:
         """Account one policy step that ran gait ``active`` and cost ``p_cost`` [W]; ``reset`` marks robots reset
         after it. Returns (obs (K, D), gait (K,), mean p_cost (K,)) of the windows completed by this step."""
         cut = self.open & ((active != self.gait) | reset)
-        self.dropped += int(cut.sum())
+        self.dropped += cut.sum()
         self.open &= ~cut
         self.sum += torch.where(self.open, p_cost, torch.zeros_like(p_cost))
         self.length += self.open.long()

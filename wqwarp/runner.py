@@ -102,6 +102,28 @@ class WqRunner(OnPolicyRunner):
         if not dist.is_initialized():
             dist.init_process_group(backend="gloo", rank=self.gpu_global_rank, world_size=world)
 
+    def ranks_in_sync(self) -> dict[str, float]:
+        """Under torch.distributed: the largest parameter difference between this rank and rank 0 of each network
+        (actor, critic, estimator, power predictor), taken over all ranks; 0 when all ranks hold the same
+        networks. ``{}`` outside torch.distributed."""
+        import torch.distributed as dist
+
+        if not (self.is_distributed and dist.is_initialized()):
+            return {}
+        nets = {"actor": self.alg.actor, "critic": self.alg.critic, "estimator": self.env.estimator}
+        if hasattr(self.env.gait_selector, "predictor"):
+            nets["predictor"] = self.env.gait_selector.predictor
+        out = {}
+        for name, net in nets.items():
+            flat = torch.cat([t.detach().reshape(-1).float() for t in list(net.parameters()) + list(net.buffers())
+                              if t.is_floating_point()])  # fmt: skip
+            ref = flat.clone()
+            dist.broadcast(ref, src=0)
+            diff = (flat - ref).abs().max().reshape(1)
+            dist.all_reduce(diff, op=dist.ReduceOp.MAX)
+            out[name] = float(diff)
+        return out
+
     def fit_auxiliary(self) -> dict[str, float]:
         """Fit the state estimator and the power predictor on the rollout just collected; keep them identical
         across ranks; advance the temperature schedule to the next iteration. Returns their losses."""
