@@ -85,15 +85,23 @@ def parse_args(argv=None) -> argparse.Namespace:
         "--threads",
         type=int,
         default=None,
-        help="CPU threads of torch and of the physics together (default: torch 1, physics every core, shared "
-        "among torchrun's processes; measured within 1.2x of the best setting idle and with a core busy, README "
-        "'Threads'). More torch threads than free cores slows training 5-7x when anything else runs",
+        help="CPU threads of torch and of the physics together (default: torch 1 while collecting and half the "
+        "cores in the PPO update, physics every core; cores are shared among torchrun's processes; measured within "
+        "1.2x of the best setting idle and with a core busy, README 'Threads'). More torch threads than free cores "
+        "slows training 3-7x when anything else runs",
     )
     p.add_argument(
         "--torch-threads",
         type=int,
         default=None,
-        help="torch intra-op threads during collection and the PPO update (overrides --threads)",
+        help="torch intra-op threads during collection (policy and estimator inference; overrides --threads)",
+    )
+    p.add_argument(
+        "--update-threads",
+        type=int,
+        default=None,
+        help="torch intra-op threads during the PPO update and the estimator / predictor fits (default: half the "
+        "cores, 1 on 2 cores; overrides --threads)",
     )
     p.add_argument(
         "--physics-threads", type=int, default=None, help="mujoco.rollout threads (CPU; overrides --threads)"
@@ -241,7 +249,7 @@ def main(argv=None) -> int:
         fail("--num-envs, --max-iterations, --save-interval and --num-steps-per-env must be positive")
     if args.resume and not os.path.isfile(args.resume):
         fail(f"--resume: no such checkpoint {args.resume!r}")
-    for name in ("threads", "torch_threads", "physics_threads"):
+    for name in ("threads", "torch_threads", "update_threads", "physics_threads"):
         if getattr(args, name) is not None and getattr(args, name) < 1:
             fail(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
     world = int(os.getenv("WORLD_SIZE", "1"))
@@ -262,7 +270,7 @@ def main(argv=None) -> int:
     torch.manual_seed(args.seed + rank)
     from wqwarp.threads import configure_threads
 
-    threads = configure_threads(args.threads, args.torch_threads, args.physics_threads)
+    threads = configure_threads(args.threads, args.torch_threads, args.physics_threads, args.update_threads)
 
     from wqwarp.config import TrainConfig, make_preset, to_dict
     from wqwarp.env import WheeledGo1Env
@@ -310,8 +318,9 @@ def main(argv=None) -> int:
                        num_steps_per_env=args.num_steps_per_env)  # fmt: skip
     say = print if rank == 0 else (lambda *a, **k: None)
     ranks = f" x {world} processes" if world > 1 else ""
-    say(f"wqwarp: preset {args.preset}, {args.num_envs} robots{ranks} on {device} (threads: torch {threads['torch']}, "
-        f"physics {threads['physics']}), log dir {log_dir}", flush=True)  # fmt: skip
+    say(f"wqwarp: preset {args.preset}, {args.num_envs} robots{ranks} on {device} (threads: torch "
+        f"{threads['torch']}, update {threads['update']}, physics {threads['physics']}), log dir {log_dir}",
+        flush=True)  # fmt: skip
     t_setup = time.time()
     env = WheeledGo1Env(cfg)
     say(f"environment ready in {time.time() - t_setup:.1f} s ({env.num_obs} actor observations, "
@@ -323,6 +332,7 @@ def main(argv=None) -> int:
                        "train": to_dict(tcfg)}, f, indent=2)  # fmt: skip
     with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the full networks
         runner = WqRunner(env, tcfg.rsl_rl_dict(), log_dir=log_dir, device=device)
+    runner.update_threads = threads["update"]
     if args.resume:
         try:
             runner.load(args.resume)

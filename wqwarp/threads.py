@@ -15,18 +15,26 @@ DEFAULT_TORCH_THREADS = 1
 load, where torch's own default, one thread per core, is 5-7x slower under load)."""
 
 
-DEFAULT_UPDATE_THREADS = 1
-"""Torch threads during the PPO update by default."""
-
-
-def default_physics_threads() -> int:
-    """Physics threads by default: the cores this process may run on, shared among the processes of this machine
-    under torchrun (``LOCAL_WORLD_SIZE``)."""
+def available_cores() -> int:
+    """Cores this process may run on, shared among the processes of this machine under torchrun
+    (``LOCAL_WORLD_SIZE``)."""
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
         cores = os.cpu_count() or 1
     return max(1, cores // max(1, int(os.getenv("LOCAL_WORLD_SIZE", "1"))))
+
+
+def default_physics_threads() -> int:
+    """Physics threads by default: every available core (:func:`available_cores`)."""
+    return available_cores()
+
+
+def default_update_threads() -> int:
+    """Torch threads during the PPO update by default: half the available cores (1 on 2 cores, where 2 threads
+    lose 3x when another process holds a core: README "Threads"), so that one busy core never stalls the update
+    while larger machines still run it in parallel."""
+    return max(1, available_cores() // 2)
 
 
 def configure_threads(
@@ -36,8 +44,8 @@ def configure_threads(
     update_threads: int | None = None,
 ) -> dict[str, int]:
     """Resolve and apply the thread counts: ``threads`` sets both pools, ``torch_threads`` / ``physics_threads``
-    override one. Sets torch's intra-op threads now; returns ``{"torch": T, "physics": P}``, P to pass as
-    ``SimConfig.nthread``."""
+    override one. Sets torch's intra-op threads (collection) now; returns ``{"torch": T, "update": U, "physics": P}``:
+    U for ``WqRunner.update_threads`` (the PPO update and the fits), P for ``SimConfig.nthread``."""
     import torch
 
     for name, v in (("threads", threads), ("torch_threads", torch_threads), ("physics_threads", physics_threads),
@@ -46,6 +54,6 @@ def configure_threads(
             raise ValueError(f"{name} must be >= 1, got {v}")
     t = torch_threads or threads or DEFAULT_TORCH_THREADS
     p = physics_threads or threads or default_physics_threads()
-    u = update_threads or threads or DEFAULT_UPDATE_THREADS
+    u = update_threads or threads or default_update_threads()
     torch.set_num_threads(t)
     return {"torch": t, "update": u, "physics": p}
