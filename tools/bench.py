@@ -38,14 +38,14 @@ def _time(fn, seconds: float) -> tuple[float, int]:
             return dt, n
 
 
-def bench_size(n: int, device: str, backend: str, seconds: float) -> dict:
+def bench_size(n: int, device: str, backend: str, seconds: float, cuda_graph: bool = True) -> dict:
     import mujoco
     from mujoco import rollout
 
     from wqwarp.sim.backend import SimConfig, Simulator
 
     t0 = time.perf_counter()
-    sim = Simulator(SimConfig(num_envs=n, device=device, backend=backend))
+    sim = Simulator(SimConfig(num_envs=n, device=device, backend=backend, cuda_graph=cuda_graph))
     setup = time.perf_counter() - t0
     dec = sim.cfg.decimation
     for _ in range(25):  # settle into the standing pose
@@ -108,6 +108,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--device", default="cpu", help="Warp device: cpu or cuda:N (default cpu)")
     ap.add_argument("--backend", default="auto", help="auto | mujoco_cpu | mujoco_warp (default auto)")
     ap.add_argument("--seconds", type=float, default=2.0, help="minimum timed wall time per measurement (default 2)")
+    ap.add_argument("--no-cuda-graph", action="store_true",
+                    help="mujoco_warp on CUDA: launch the decimation loop's kernels one by one instead of replaying "
+                    "a captured CUDA graph (to measure what the graph saves)")  # fmt: skip
     ap.add_argument("--json", default=None, help="also write the results as JSON to this path")
     args = ap.parse_args(argv)
     try:
@@ -130,7 +133,8 @@ def main(argv: list[str] | None = None) -> int:
              f"{'policy st/s':>12} {'policy/raw':>10}"  # fmt: skip
     print(f"device: {desc}\n{header}", flush=True)
     for n in sizes:
-        r = bench_size(n, args.device, args.backend, args.seconds)
+        r = bench_size(n, args.device, args.backend, args.seconds, cuda_graph=not args.no_cuda_graph)
+        r["cuda_graph"] = not args.no_cuda_graph
         results.append(r)
         print(f"{r['n']:>6} {r['backend']:>12} {r['setup_s']:>9.2f} {r['backend_steps_per_s']:>13.0f} "
               f"{r['raw_steps_per_s']:>11.0f} {r['ratio']:>6.2f} {r['policy_steps_per_s']:>12.0f} "
