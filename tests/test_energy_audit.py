@@ -66,7 +66,7 @@ def test_json_has_the_documented_fields(tmp_path, capsys):
     assert "| standing |" in captured.out
     data = json.loads(out.read_text())
     assert "--scenarios standing" in data["command"]
-    assert set(data["git"]) == {"commit", "dirty"}
+    assert set(data["git"]) == {"commit", "dirty", "tracked_changes"}
     assert [s["name"] for s in data["settings"]] == ["0.005x4", "0.001x20"]
     assert [s["policy_dt"] for s in data["settings"]] == pytest.approx([0.02, 0.02])
     entry = data["scenarios"]["standing"]

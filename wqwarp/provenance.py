@@ -12,13 +12,18 @@ _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def git_state() -> dict:
-    """``{"commit": sha or None, "dirty": bool or None}`` of the checkout holding this package (None outside git)."""
+    """``{"commit": sha or None, "dirty": bool or None, "tracked_changes": bool or None}`` of the checkout holding
+    this package (None outside git)."""
     try:
         run = lambda *a: subprocess.run(["git", "-C", _ROOT, *a], capture_output=True, text=True, check=True)  # noqa: E731
         head, status = run("rev-parse", "HEAD"), run("status", "--porcelain")
     except (OSError, subprocess.CalledProcessError):
-        return {"commit": None, "dirty": None}
-    return {"commit": head.stdout.strip(), "dirty": bool(status.stdout.strip())}
+        return {"commit": None, "dirty": None, "tracked_changes": None}
+    lines = [ln for ln in status.stdout.splitlines() if ln.strip()]
+    # "dirty": anything uncommitted, new files included; "tracked_changes": edits of committed files only (a run
+    # that writes several result files into the tree makes the later ones "dirty" with its own output).
+    return {"commit": head.stdout.strip(), "dirty": bool(lines),
+            "tracked_changes": any(not ln.startswith("??") for ln in lines)}  # fmt: skip
 
 
 def write_result_json(path: str, data: dict, indent: int | None = 2) -> None:
