@@ -140,8 +140,10 @@ def clear_contact_rows(
     wheel_force: wp.array2d(dtype=wp.float32),
     wheel_contact: wp.array2d(dtype=wp.int32),
     body_collision: wp.array2d(dtype=wp.int32),
+    unstable: wp.array(dtype=wp.int32),
 ):
-    """Zero the contact summaries (wheel forces and flags, body-collision flags) of robots ``env_ids``."""
+    """Zero the contact summaries (wheel forces and flags, body-collision flags) and the divergence flag of robots
+    ``env_ids``."""
     i = wp.tid()
     world = env_ids[i]
     for k in range(wheel_force.shape[1]):
@@ -149,3 +151,37 @@ def clear_contact_rows(
         wheel_contact[world, k] = 0
     for k in range(body_collision.shape[1]):
         body_collision[world, k] = 0
+    unstable[world] = 0
+
+
+@wp.func
+def state_is_bad(value: float, limit: float) -> bool:
+    """A coordinate or velocity that is non-finite or beyond ``limit`` in magnitude: a diverged simulation."""
+    return not (wp.abs(value) <= limit)  # false for NaN and +-inf as well
+
+
+@wp.kernel
+def flag_unstable(
+    joint_q: wp.array2d(dtype=wp.float32),
+    joint_qd: wp.array2d(dtype=wp.float32),
+    joint_torque: wp.array2d(dtype=wp.float32),
+    position_limit: float,
+    velocity_limit: float,
+    # outputs
+    unstable: wp.array(dtype=wp.int32),
+):
+    """Set ``unstable[world]`` to 1 when any coordinate of the robot exceeds ``position_limit`` (m or rad), any velocity
+    ``velocity_limit`` (m/s or rad/s), or any value (torques included) is non-finite; leave it unchanged otherwise."""
+    world = wp.tid()
+    bad = int(0)
+    for k in range(joint_q.shape[1]):
+        if state_is_bad(joint_q[world, k], position_limit):
+            bad = 1
+    for k in range(joint_qd.shape[1]):
+        if state_is_bad(joint_qd[world, k], velocity_limit):
+            bad = 1
+    for k in range(joint_torque.shape[1]):
+        if state_is_bad(joint_torque[world, k], 1.0e30):
+            bad = 1
+    if bad == 1:
+        unstable[world] = 1

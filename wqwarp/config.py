@@ -383,6 +383,8 @@ MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("predictor.power_normalization", "watts", "the literal formula, the only one before the setting existed"),
     ("sim.joint_model", "asset", "the USD's joint model, the only one before the setting existed"),
     ("domain_rand.nominal_friction", 1.0, "the friction without randomisation before the setting existed"),
+    ("sim.unstable_position_limit", 1.0e3, "the divergence guard's default; before it, a diverged robot went unseen"),
+    ("sim.unstable_velocity_limit", 1.0e3, "the divergence guard's default; before it, a diverged robot went unseen"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
 checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""

@@ -168,6 +168,8 @@ class WheeledGo1Env(VecEnv):
         requested = wp.to_torch(self.nominal.gait_id) if self.nominal is not None else None
         self.gait_selector = make_gait_selector(cfg, requested, GAIT_NAMES, start_gait, self.dt, self.num_obs)
         self._collect = False
+        self.unstable_count = torch.zeros((), dtype=torch.long, device=dev)
+        """Robot-steps whose simulation diverged since construction (terminated and reset, ``sim.unstable``)."""
         self.held_commands: torch.Tensor | None = None
         """Commands held by :meth:`hold_commands` (evaluation), or None for random commands."""
         self.extras: dict = {}
@@ -233,17 +235,24 @@ class WheeledGo1Env(VecEnv):
         self.episode_length_buf += 1
         self.common_step_counter += 1
         rewards = self._compute_rewards()
-        died = self.tv["body_collision"][:, 0] > 0
-        time_out = self.episode_length_buf >= self.max_episode_length
+        # A robot whose simulation diverged (sim.unstable) is terminated and reset; nothing it produced in this step
+        # (reward, power, metrics, episode sums) reaches the learners or the logs.
+        unstable = self.tv["unstable"] > 0
+        self.last_unstable = unstable
+        """Robots whose simulation diverged in the last step (terminated and reset)."""
+        self._quarantine(unstable, rewards)
+        fell = (self.tv["body_collision"][:, 0] > 0) & ~unstable
+        died = fell | unstable
+        time_out = (self.episode_length_buf >= self.max_episode_length) & ~unstable
         dones = died | time_out
-        self.gait_selector.record_step(self.tv["p_cost"], self.active_gait(), self.commands, dones, died)
+        self.gait_selector.record_step(self.tv["p_cost"], self.active_gait(), self.commands, dones, fell)
         self.prev2_actions[:] = self.prev_actions
         self.prev_actions[:] = self.actions
         # Metrics see the state before resets; the observations below re-read it after resets and pushes.
-        self.extras = {"time_outs": time_out.clone(), "log": self._step_metrics(self.base_state())}
+        self.extras = {"time_outs": time_out.clone(), "log": self._step_metrics(self.base_state(), ~unstable)}
         done_ids = dones.nonzero(as_tuple=False).flatten()
         if len(done_ids):
-            self.extras["log"].update(self._episode_log(done_ids))
+            self.extras["log"].update(self._episode_log(done_ids, unstable))
             self._reset_envs(done_ids)
         resample = (self.episode_length_buf % self.resample_steps == 0).nonzero(as_tuple=False).flatten()
         if len(resample):
@@ -301,32 +310,44 @@ class WheeledGo1Env(VecEnv):
                   device=sim.device)  # fmt: skip
         return self.reward_buf
 
-    def _step_metrics(self, b: dict) -> dict:
+    def _step_metrics(self, b: dict, valid: torch.Tensor) -> dict:
+        """Means over the robots whose step is ``valid`` (not diverged)."""
+        w = valid.float()
+        count = w.sum().clamp(min=1.0)
+        mean = lambda x: torch.where(valid, x, torch.zeros_like(x)).sum() / count  # noqa: E731
         err = torch.abs(b["lin_vel"][:, :2] - self.commands[:, :2])
         werr = torch.abs(b["ang_vel"][:, 2] - self.commands[:, 2])
-        return {
-            "Metrics/vx_error": err[:, 0].mean(),
-            "Metrics/vy_error": err[:, 1].mean(),
-            "Metrics/wz_error": werr.mean(),
-            "Metrics/p_cost": self.tv["p_cost"].mean(),
-            "Metrics/p_cost_legs": self.tv["p_cost_legs"].mean(),
-            "Metrics/p_cost_wheels": self.tv["p_cost_wheels"].mean(),
-            "Metrics/p_mech_legs": self.tv["p_mech_legs"].mean(),
-            "Metrics/p_mech_wheels": self.tv["p_mech_wheels"].mean(),
-            "Metrics/p_joule_legs": self.tv["p_joule_legs"].mean(),
-            "Metrics/p_joule_wheels": self.tv["p_joule_wheels"].mean(),
-        }
+        out = {"Metrics/vx_error": mean(err[:, 0]), "Metrics/vy_error": mean(err[:, 1]), "Metrics/wz_error": mean(werr)}
+        for k in ("p_cost", "p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs",
+                  "p_joule_wheels"):  # fmt: skip
+            out[f"Metrics/{k}"] = mean(self.tv[k])
+        return out
 
-    def _episode_log(self, ids: torch.Tensor) -> dict:
+    def _episode_log(self, ids: torch.Tensor, unstable: torch.Tensor) -> dict:
+        """Per-term episode rewards per second over the ended episodes that did not diverge, and the shares of
+        ended episodes that ended by a base contact or by a diverged simulation."""
+        bad = unstable[ids]
+        ok = (~bad).float()  # masked means: no boolean selection (a host synchronisation on CUDA)
         seconds = torch.clamp(self.episode_length_buf[ids].float() * self.dt, min=self.dt)
+        count = ok.sum().clamp(min=1.0)
         log = {}
         for k, name in enumerate(REWARD_TERMS):
             if name in self.active_terms:
-                log[f"Episode_Reward/{name}"] = torch.mean(self.episode_sums[ids, k] / seconds)
-        log["Episode_Termination/base_contact"] = torch.mean(
-            (self.episode_length_buf[ids] < self.max_episode_length).float()
-        )
+                log[f"Episode_Reward/{name}"] = torch.sum(self.episode_sums[ids, k] / seconds * ok) / count
+        early = self.episode_length_buf[ids] < self.max_episode_length
+        log["Episode_Termination/base_contact"] = torch.mean((early & ~bad).float())
+        log["Episode_Termination/unstable"] = torch.mean(bad.float())
         return log
+
+    def _quarantine(self, unstable: torch.Tensor, rewards: torch.Tensor) -> None:
+        """Keep what diverged robots produced in this step out of rewards, power, metrics and episode sums (masked
+        writes: no host synchronisation on CUDA)."""
+        self.unstable_count += unstable.sum()
+        rewards.masked_fill_(unstable, 0.0)
+        for k in ("p_cost", "p_mech", "p_joule", "p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels",
+                  "p_joule_legs", "p_joule_wheels", "torque_sq", "power_sq"):  # fmt: skip
+            self.tv[k].masked_fill_(unstable, 0.0)
+        self.episode_sums.masked_fill_(unstable[:, None], 0.0)
 
     # --- resets, commands, pushes --------------------------------------------------------------------------------
     def _reset_envs(self, ids: torch.Tensor) -> None:

@@ -34,6 +34,7 @@ from wqwarp.kernels import actuation, power
 from wqwarp.kernels.contacts import accumulate_newton_contacts, contacts_from_sensordata
 from wqwarp.kernels.state import (
     clear_contact_rows,
+    flag_unstable,
     gather_actuated,
     mujoco_state_to_newton,
     newton_state_to_mujoco,
@@ -129,6 +130,10 @@ class SimConfig:
     """MuJoCo constraint-solver iterations (MuJoCo default)."""
     ls_iterations: int = 50
     """MuJoCo line-search iterations (MuJoCo default)."""
+    unstable_position_limit: float = 1.0e3
+    """A robot whose coordinate exceeds this magnitude [m or rad] counts as diverged (``Simulator.unstable``)."""
+    unstable_velocity_limit: float = 1.0e3
+    """A robot whose velocity exceeds this magnitude [m/s or rad/s] counts as diverged (wheels run below 50 rad/s)."""
     njmax: int | None = None
     """Constraint rows per world for ``mujoco_warp`` (default: Newton's estimate)."""
     nconmax: int | None = None
@@ -185,8 +190,14 @@ class _Buffers:
     wheel_force: wp.array
     wheel_contact: wp.array  # int32
     body_collision: wp.array  # int32
+    unstable: wp.array  # int32
     actuated_q: wp.array
     actuated_qd: wp.array
+
+
+@wp.kernel
+def _mask_from_ids(env_ids: wp.array(dtype=wp.int32), mask: wp.array(dtype=wp.bool)):
+    mask[env_ids[wp.tid()]] = True
 
 
 @wp.kernel
@@ -204,7 +215,9 @@ class Simulator:
     substep), ``p_cost`` / ``p_mech`` / ``p_joule`` (N,) [W] averaged over the substeps, each also split into
     ``*_legs`` and ``*_wheels``, ``torque_sq`` / ``power_sq`` (N,) substep averages of sum tau^2 and sum (tau qd)^2
     (``wqwarp.kernels.power``), ``wheel_force`` (N, 4) [N],
-    ``wheel_contact`` (N, 4) and ``body_collision`` (N, 9) int32 flags, ``actuated_q`` / ``actuated_qd`` (N, 16) the
+    ``wheel_contact`` (N, 4) and ``body_collision`` (N, 9) int32 flags, ``unstable`` (N,) int32: 1 for a robot whose
+    simulation diverged in this step (MuJoCo reset its data, or a coordinate, velocity or torque is non-finite or
+    beyond the ``SimConfig.unstable_*`` limits; the caller must reset it), ``actuated_q`` / ``actuated_qd`` (N, 16) the
     actuated joints in project order (``wqwarp.constants``).
     """
 
@@ -248,6 +261,7 @@ class Simulator:
                 wheel_force=wp.zeros((n, 4), dtype=f32),
                 wheel_contact=wp.zeros((n, 4), dtype=wp.int32),
                 body_collision=wp.zeros((n, len(C.COLLISION_BODY_NAMES)), dtype=wp.int32),
+                unstable=wp.zeros(n, dtype=wp.int32),
                 actuated_q=wp.zeros((n, 16), dtype=f32),
                 actuated_qd=wp.zeros((n, 16), dtype=f32),
             )
@@ -313,10 +327,15 @@ class Simulator:
         b = self.buf
         for name in power.POWER_OUTPUTS:
             getattr(b, name).zero_()
+        b.unstable.zero_()
         if self.backend == "mujoco_cpu":
             self._step_mujoco_cpu(actuate)
         else:
             self._step_mujoco_warp(actuate)
+        cfg = self.cfg
+        wp.launch(flag_unstable, dim=self.num_envs, inputs=[self.joint_q, self.joint_qd, b.joint_torque,
+                  cfg.unstable_position_limit, cfg.unstable_velocity_limit], outputs=[b.unstable],
+                  device=self.device)  # fmt: skip
         self._post_step()
 
     def _post_step(self) -> None:
@@ -360,8 +379,12 @@ class Simulator:
         self.set_state(ids, joint_q, joint_qd)
         b = self.buf
         actuation.launch_reset_wheel_pid(ids, b.wheel_integral, b.wheel_prev_error, self.device)
-        wp.launch(clear_contact_rows, dim=k, inputs=[ids], outputs=[b.wheel_force, b.wheel_contact, b.body_collision],
-                  device=self.device)  # fmt: skip
+        wp.launch(clear_contact_rows, dim=k, inputs=[ids], outputs=[b.wheel_force, b.wheel_contact, b.body_collision,
+                  b.unstable], device=self.device)  # fmt: skip
+        if self.backend == "mujoco_warp":  # clear MuJoCo's warm start and applied forces: after a divergence (NaN)
+            self._reset_mask.zero_()  # they would poison the next step even from a clean state
+            wp.launch(_mask_from_ids, dim=k, inputs=[ids], outputs=[self._reset_mask], device=self.device)
+            self.solver.reset(self.state, self._reset_mask, flags=0)
         import newton
 
         newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state, indices=ids)
@@ -485,6 +508,7 @@ class Simulator:
         self._sensordata = np.zeros((n, 1, m.nsensordata))
         self._sensordata_wp = wp.array(self._sensordata.reshape(n, m.nsensordata), dtype=wp.float64, copy=False)
         self._joint_f_np = self.joint_f.numpy()  # zero-copy view on CPU
+        self._unstable_np = self.buf.unstable.numpy()  # zero-copy view on CPU
         self._root_com = wp.vec3(*self.model.body_com.numpy()[self.layout.trunk_body])
         self._wheel_found_wp = wp.array(self._wheel_found_col, dtype=wp.int32)
         self._body_found_wp = wp.array(self._body_found_col, dtype=wp.int32)
@@ -506,6 +530,9 @@ class Simulator:
                 self._mj_models, self._mj_datas, src[:, 0, :], self._mj_control, control_spec=self._qfrc_spec,
                 nstep=1, state=dst, sensordata=self._sensordata, skip_checks=True,
             )  # fmt: skip
+            # MuJoCo resets the data of a diverged robot inside the step (a warning, time restarts at 0): its time
+            # then falls behind. Flag it; the kernel after the loop adds non-finite and exploding states.
+            self._unstable_np |= dst[:, 0, 0] < src[:, 0, 0]
             self._parity = 1 - self._parity
             self._mirror_cmds[self._parity].launch()
         import newton
@@ -553,6 +580,7 @@ class Simulator:
         self._body_slot = wp.array(body_slot, dtype=wp.int32)
         self._graph = None
         self._use_graph = cfg.cuda_graph and self.device.is_cuda
+        self._reset_mask = wp.zeros(self.num_envs + 1, dtype=wp.bool)  # per world, + Newton's global world
         self._trunk_mass = float(self.solver.mjw_model.body_mass.numpy()[0, 1])
 
     def _decimation_loop_warp(self, actuate: bool = True) -> None:
