@@ -4,6 +4,8 @@ produced reaches rewards, power, logs or the learners. On ``mujoco_cpu`` MuJoCo 
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 import torch
@@ -25,7 +27,8 @@ def _poison(sim: Simulator, robot: int, value: float) -> None:
 
 @pytest.mark.parametrize("backend", ["mujoco_cpu", "mujoco_warp"])
 @pytest.mark.parametrize("value", [float("nan"), 5.0e3])
-def test_the_simulator_flags_exactly_the_diverged_robot(backend, value):
+def test_the_simulator_flags_exactly_the_diverged_robot(backend, value, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # where MuJoCo's default handler would write its log file
     sim = Simulator(SimConfig(num_envs=N, backend=backend))
     for _ in range(3):
         sim.step()
@@ -35,6 +38,11 @@ def test_the_simulator_flags_exactly_the_diverged_robot(backend, value):
     assert sim.unstable.numpy().tolist() == [0, 0, 1, 0]
     sim.reset([2])
     assert not sim.unstable.numpy().any()
+    if backend == "mujoco_cpu" and value != value:  # MuJoCo warned (NaN): to the logger, not to MUJOCO_LOG.TXT
+        from wqwarp.sim.backend import MUJOCO_WARNINGS
+
+        assert MUJOCO_WARNINGS and "unstable" in MUJOCO_WARNINGS[-1]
+        assert not os.path.exists("MUJOCO_LOG.TXT")
     for _ in range(3):
         sim.step()
     assert not sim.unstable.numpy().any()

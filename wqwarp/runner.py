@@ -270,8 +270,9 @@ def export_onboard_policy(runner: WqRunner, out_dir: str) -> dict[str, str]:
     scripted.save(paths["torchscript"] + ".tmp")
     os.replace(paths["torchscript"] + ".tmp", paths["torchscript"])
     paths["onnx"] = os.path.join(out_dir, "policy.onnx")
+    batch = {name: {0: "batch"} for name in ["history", *outputs]}  # any batch size (one robot onboard, N in sim)
     torch.onnx.export(model, (dummy,), paths["onnx"] + ".tmp", input_names=["history"], output_names=outputs,
-                      opset_version=18, dynamo=False)  # fmt: skip
+                      dynamic_axes=batch, opset_version=18, dynamo=False)  # fmt: skip
     os.replace(paths["onnx"] + ".tmp", paths["onnx"])
     paths["json"] = os.path.join(out_dir, "policy.json")
     meta = {

@@ -45,6 +45,25 @@ BACKENDS = ("auto", "mujoco_cpu", "mujoco_warp")
 JOINT_MODELS = ("asset", "authors")
 
 
+_MUJOCO_LOG = logging.getLogger("wqwarp.mujoco")
+MUJOCO_WARNINGS: list[str] = []
+"""MuJoCo warnings of this process (last 100), e.g. "Nan, Inf or huge value in QACC at DOF 0 ... Time = t"."""
+
+
+def route_mujoco_warnings() -> None:
+    """Send MuJoCo's warnings to the ``wqwarp.mujoco`` logger (and :data:`MUJOCO_WARNINGS`) instead of MuJoCo's
+    default, a ``MUJOCO_LOG.TXT`` file appended to in the working directory. The robot a warning concerns is
+    flagged by :attr:`Simulator.unstable`."""
+    import mujoco
+
+    def handler(msg: str) -> None:
+        MUJOCO_WARNINGS.append(msg)
+        del MUJOCO_WARNINGS[:-100]
+        _MUJOCO_LOG.warning("MuJoCo: %s", msg)
+
+    mujoco.set_mju_user_warning(handler)
+
+
 def index_array(env_ids, device, count: int) -> wp.array:
     """Robot indices as an int32 Warp array on ``device``. A Warp array or a torch tensor already on the device is
     used in place (no host round trip, no range check); a list or NumPy array is checked against ``[0, count)`` and
@@ -469,6 +488,7 @@ class Simulator:
         from mujoco import rollout
 
         cfg = self.cfg
+        route_mujoco_warnings()
         template = robot.scene_builder(1).finalize(device="cpu")
         apply_joint_model(template, robot.robot_layout(template), cfg.joint_model)
         log = logging.getLogger("newton")
