@@ -335,7 +335,7 @@ def main(argv=None) -> int:
     runner.update_threads = threads["update"]
     if args.resume:
         try:
-            runner.load(args.resume)
+            runner.load(args.resume, restore_rng=True)
         except ValueError as e:
             fail(str(e))
         runner.current_learning_iteration += 1  # continue after the checkpoint; never rewrite it

@@ -467,7 +467,8 @@ class PredictiveGaitSelector(FixedGaitSelector):
     # --- checkpoints -------------------------------------------------------------------------------------------------
     def state_dict(self) -> dict:
         return {"name": self.name, "predictor": self.predictor.state_dict(),
-                "optimizer": self.optimizer.state_dict(), "iteration": self.iteration}  # fmt: skip
+                "optimizer": self.optimizer.state_dict(), "iteration": self.iteration,
+                "rng": self.gen.get_state()}  # fmt: skip
 
     def load_state_dict(self, state: dict) -> None:
         super().load_state_dict(state)
@@ -475,6 +476,8 @@ class PredictiveGaitSelector(FixedGaitSelector):
         if "optimizer" in state:
             self.optimizer.load_state_dict(state["optimizer"])
         self.iteration = int(state.get("iteration", 0))
+        if "rng" in state:  # sampling and replay draws continue where the checkpoint left them
+            self.gen.set_state(state["rng"].cpu())
 
 
 def make_gait_selector(cfg, requested: torch.Tensor | None, gait_names: tuple[str, ...], start_gait: int,

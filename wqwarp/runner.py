@@ -167,7 +167,9 @@ class WqRunner(OnPolicyRunner):
             "obs_layout": env.obs_layout,
             "num_actions": env.num_actions,
             "env_cfg": to_dict(env.cfg),
-        }
+            "rng": {"torch": torch.get_rng_state(), "env": env.gen.get_state(),
+                    **({"cuda": torch.cuda.get_rng_state(env.device)} if env.device.startswith("cuda") else {})},
+        }  # fmt: skip
 
     def save(self, path: str, infos: dict | None = None) -> None:
         """Save atomically (temporary file, then rename): a crash never leaves a truncated checkpoint."""
@@ -177,7 +179,12 @@ class WqRunner(OnPolicyRunner):
         super().save(tmp, merged)
         os.replace(tmp, path)
 
-    def load(self, path: str, load_cfg: dict | None = None, strict: bool = True, map_location: str | None = None):
+    def load(self, path: str, load_cfg: dict | None = None, strict: bool = True, map_location: str | None = None,
+             restore_rng: bool = False):  # fmt: skip
+        """Load a checkpoint written by :meth:`save`. ``restore_rng`` (resuming a training run) also restores the
+        random streams (torch's, the env's and the gait selector's generators) where they stood at the checkpoint
+        instead of restarting them from the seed (the robots themselves restart: their states are not saved);
+        evaluation leaves it off, so that its own seed decides commands, pushes and resets."""
         infos = torch.load(path, weights_only=False, map_location=map_location or self.device).get("infos") or {}
         check_compatible(infos, self.env, path)
         infos = super().load(path, load_cfg, strict, map_location or self.device)
@@ -185,10 +192,22 @@ class WqRunner(OnPolicyRunner):
         if "estimator_optimizer" in infos:
             self.env.estimator_trainer.optimizer.load_state_dict(infos["estimator_optimizer"])
         if "gait_selector" in infos:
-            self.env.gait_selector.load_state_dict(infos["gait_selector"])
+            state = infos["gait_selector"]
+            if not restore_rng:
+                state = {k: v for k, v in state.items() if k != "rng"}
+            self.env.gait_selector.load_state_dict(state)
         elif self.env.gait_selector.name == "predictive":
             raise ValueError(f"{path} holds no power predictor; it cannot drive the predictive gait selection")
+        sel_rng = self.env.gait_selector.gen.get_state() if hasattr(self.env.gait_selector, "gen") else None
         self.env.refresh_after_load()
+        rng = infos.get("rng") if restore_rng else None
+        if rng:  # after the refresh: the streams continue exactly where the checkpoint left them
+            torch.set_rng_state(rng["torch"].cpu())
+            self.env.gen.set_state(rng["env"].cpu())
+            if sel_rng is not None:
+                self.env.gait_selector.gen.set_state(sel_rng)
+            if "cuda" in rng and self.env.device.startswith("cuda"):
+                torch.cuda.set_rng_state(rng["cuda"].cpu(), self.env.device)
         return infos
 
 
