@@ -39,8 +39,6 @@ import sys
 import tempfile
 import time
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-
 STAGES = ("physics", "sim_kernels", "env_kernels", "env_resets", "estimator_inference", "gait_selection",
           "env_torch", "policy_inference", "storage", "returns", "ppo_update", "estimator_fit", "predictor_fit",
           "other")  # fmt: skip

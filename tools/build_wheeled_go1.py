@@ -28,7 +28,6 @@ import tempfile
 
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from wqwarp import constants as C  # noqa: E402
 
 ROOT = "/wheeled_go1"

@@ -23,10 +23,7 @@ that gait under this policy, not the gait's best possible power. Nothing learns.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 RANGES = {"vx": (-1.0, 1.0), "vy": (-0.7, 0.7), "wz": (-0.7, 0.7)}
 TRACKING_LIMIT = 0.05

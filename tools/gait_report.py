@@ -15,13 +15,10 @@ import argparse
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-
 
 def summarise(run_dir: str, last: int) -> dict:
     """tag -> mean over the last ``last`` iterations, for the ``Gait/*``, ``Predictor/*`` and ``Metrics/*`` tags."""
-    from plot_learning_curve import load_scalars
+    from wqwarp.report import load_scalars
 
     scalars = load_scalars(run_dir)
     out: dict = {"run": run_dir, "last_iterations": last, "scalars": {}}

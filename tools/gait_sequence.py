@@ -16,32 +16,12 @@ stay as saved.
 from __future__ import annotations
 
 import argparse
-import math
-import os
 import sys
 import time
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-
 DEFAULT_SEGMENTS = "0.6,0,0:4;0,0.4,0:4;0,0,0.6:4;0,0,0:4;-0.4,0,0:4"
 
-
-def parse_segments(text: str) -> list[tuple[tuple[float, float, float], float]]:
-    """``"vx,vy,wz:s;..."`` -> [((vx, vy, wz), seconds), ...]; ValueError naming the bad segment."""
-    out = []
-    for part in [p.strip() for p in text.split(";") if p.strip()]:
-        try:
-            cmd, sec = part.split(":")
-            v = tuple(float(x) for x in cmd.split(","))
-            s = float(sec)
-        except ValueError:
-            raise ValueError(f"bad segment {part!r}: expected 'vx,vy,wz:seconds'") from None
-        if len(v) != 3 or not all(math.isfinite(x) for x in (*v, s)) or s <= 0:
-            raise ValueError(f"bad segment {part!r}: expected three finite velocities and seconds > 0")
-        out.append((v, s))
-    if not out:
-        raise ValueError("no segments given")
-    return out
+from wqwarp.play import parse_segments  # noqa: E402  (re-exported: the segment syntax of this tool)
 
 
 def main(argv=None) -> int:

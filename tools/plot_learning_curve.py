@@ -14,21 +14,7 @@ import argparse
 import os
 import sys
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-
-
-def load_scalars(run_dir: str) -> dict[str, tuple[list[int], list[float], list[float]]]:
-    """tag -> (steps, values, wall times [s from start]) of every scalar in the run's event files."""
-    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
-
-    acc = EventAccumulator(run_dir, size_guidance={"scalars": 0})
-    acc.Reload()
-    out = {}
-    for tag in acc.Tags().get("scalars", []):
-        ev = acc.Scalars(tag)
-        t0 = ev[0].wall_time if ev else 0.0
-        out[tag] = ([e.step for e in ev], [e.value for e in ev], [e.wall_time - t0 for e in ev])
-    return out
+from wqwarp.report import load_scalars  # noqa: E402  (re-exported)
 
 
 def main(argv=None) -> int:

@@ -50,9 +50,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-
-from tools.gait_sequence import parse_segments  # noqa: E402
+from wqwarp.play import parse_segments  # noqa: E402
 
 EXTENSIONS = (".gif", ".mp4")
 GL_BACKENDS = ("egl", "osmesa")

@@ -20,8 +20,6 @@ import json
 import os
 import sys
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-
 
 def first_below(values: list[float], threshold: float, window: int) -> int | None:
     """Index of the first element whose trailing mean over ``window`` values (fewer at the start) is below
@@ -37,7 +35,7 @@ def first_below(values: list[float], threshold: float, window: int) -> int | Non
 
 
 def analyse(run: str, metric: str, thresholds: list[float], window: int, bench: dict[int, float]) -> dict:
-    from tools.plot_learning_curve import load_scalars
+    from wqwarp.report import load_scalars
 
     cfg_path = os.path.join(run, "config.json")
     if not os.path.isfile(cfg_path):

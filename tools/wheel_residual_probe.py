@@ -14,10 +14,7 @@ forward speed is power spent on wheel slip: the robot pays it and gains no speed
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 
 def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool) -> dict:

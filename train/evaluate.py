@@ -18,11 +18,8 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import os
 import sys
 import time
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 
 def main(argv=None) -> int:

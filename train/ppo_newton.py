@@ -28,8 +28,6 @@ import os
 import sys
 import time
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-
 
 def parse_args(argv=None) -> argparse.Namespace:
     from wqwarp.config import PRESETS

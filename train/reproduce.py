@@ -34,7 +34,6 @@ import time
 from dataclasses import asdict, dataclass
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
 
 PRESET_ORDER = ("ours", "no_predictor", "no_wheel_vel", "pmtg", "baseline")
 """Training order: the paper's method first, so a partial run has the rows that matter most."""

@@ -165,6 +165,20 @@ COLLISION_BODY_NAMES: tuple[str, ...] = ("trunk",) + tuple(
 """Bodies whose ground contact counts as a collision (reward) - index 0, the trunk, also terminates an episode."""
 WHEEL_BODY_NAMES: tuple[str, ...] = tuple(f"{leg}_wheel" for leg in LEG_NAMES)
 
-ASSET_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "assets", "usd")
+def _asset_dir() -> str:
+    """``usd/`` of the ``wqwarp.assets`` package data (the repository's ``assets/usd`` in a source or editable
+    install, the installed copy otherwise); the source tree's folder when the package data cannot be resolved."""
+    try:
+        from importlib.resources import files
+
+        found = files("wqwarp.assets") / "usd"
+        if found.is_dir():
+            return str(found)
+    except (ModuleNotFoundError, TypeError):
+        pass
+    return os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "assets", "usd")
+
+
+ASSET_DIR = _asset_dir()
 WHEELED_GO1_USD = os.path.join(ASSET_DIR, "wheeled_go1.usda")
 """The committed wheeled Go1 asset, written by ``tools/build_wheeled_go1.py``."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import io
+import math
 import os
 import sys
 from dataclasses import dataclass
@@ -174,3 +175,21 @@ def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, devic
 def act(runner: PolicyRunner, obs) -> torch.Tensor:
     """Deterministic action of the policy for observations ``obs`` (a TensorDict)."""
     return runner.policy(obs)
+
+
+def parse_segments(text: str) -> list[tuple[tuple[float, float, float], float]]:
+    """``"vx,vy,wz:s;..."`` -> [((vx, vy, wz), seconds), ...]; ValueError naming the bad segment."""
+    out = []
+    for part in [p.strip() for p in text.split(";") if p.strip()]:
+        try:
+            cmd, sec = part.split(":")
+            v = tuple(float(x) for x in cmd.split(","))
+            s = float(sec)
+        except ValueError:
+            raise ValueError(f"bad segment {part!r}: expected 'vx,vy,wz:seconds'") from None
+        if len(v) != 3 or not all(math.isfinite(x) for x in (*v, s)) or s <= 0:
+            raise ValueError(f"bad segment {part!r}: expected three finite velocities and seconds > 0")
+        out.append((v, s))
+    if not out:
+        raise ValueError("no segments given")
+    return out

@@ -383,3 +383,17 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     lines += ["", f"Compute (sum of the stages' wall times on this machine): training {train_s / 60:.0f} min, "
               f"evaluation {eval_s / 60:.0f} min.", ""]  # fmt: skip
     return "\n".join(lines)
+
+
+def load_scalars(run_dir: str) -> dict[str, tuple[list[int], list[float], list[float]]]:
+    """tag -> (steps, values, wall times [s from start]) of every scalar in the run's event files."""
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    acc = EventAccumulator(run_dir, size_guidance={"scalars": 0})
+    acc.Reload()
+    out = {}
+    for tag in acc.Tags().get("scalars", []):
+        ev = acc.Scalars(tag)
+        t0 = ev[0].wall_time if ev else 0.0
+        out[tag] = ([e.step for e in ev], [e.value for e in ev], [e.wall_time - t0 for e in ev])
+    return out
