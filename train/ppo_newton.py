@@ -170,11 +170,26 @@ def fail(msg: str) -> None:
     sys.exit(2)
 
 
+def check_writable_dir(d: str, what: str) -> None:
+    """Fail (exit 2) unless ``d`` is, or can be created as, a writable directory; creates nothing."""
+    path = os.path.abspath(d)
+    if os.path.exists(path) and not os.path.isdir(path):
+        fail(f"{what} {d!r} is a file, not a directory")
+    parent = path
+    while not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK):
+        fail(f"{what} {d!r} cannot be written ({parent} is not a writable directory)")
+
+
 def resolve_log_dir(args) -> str:
     if args.log_dir is None:
         stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
-        return os.path.join("runs", f"{args.preset}_{stamp}")
+        d = os.path.join("runs", f"{args.preset}_{stamp}")
+        check_writable_dir(d, "log dir")
+        return d
     d = args.log_dir
+    check_writable_dir(d, "--log-dir")
     if os.path.isdir(d) and any(f.startswith("model_") for f in os.listdir(d)):
         if not (args.resume and os.path.abspath(os.path.dirname(args.resume)) == os.path.abspath(d)):
             fail(f"log dir {d!r} already holds checkpoints; choose another --log-dir or --resume from one of them")
@@ -320,7 +335,10 @@ def main(argv=None) -> int:
         f"{threads['torch']}, update {threads['update']}, physics {threads['physics']}), log dir {log_dir}",
         flush=True)  # fmt: skip
     t_setup = time.time()
-    env = WheeledGo1Env(cfg)
+    try:
+        env = WheeledGo1Env(cfg)
+    except ValueError as e:  # a configuration the simulator refuses, a missing or broken robot asset
+        fail(str(e))
     say(f"environment ready in {time.time() - t_setup:.1f} s ({env.num_obs} actor observations, "
           f"{env.num_actions} actions)", flush=True)  # fmt: skip
     if rank == 0:

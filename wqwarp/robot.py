@@ -7,6 +7,7 @@ Newton orders a USD articulation depth-first by prim name (FL, FR, RL, RR), whil
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import newton
@@ -41,9 +42,27 @@ def _short(label: str) -> str:
     return label.rsplit("/", 1)[-1]
 
 
-def add_robot(builder: newton.ModelBuilder, usd_path: str = C.WHEELED_GO1_USD) -> None:
-    """Add one wheeled Go1 (free-floating base) to ``builder``; self-collisions off (legs cannot reach each other)."""
-    builder.add_usd(usd_path, enable_self_collisions=False, floating=True)
+def robot_usd_path() -> str:
+    """The robot asset: ``$WQWARP_ROBOT_USD`` if set (a modified robot), else the packaged wheeled Go1."""
+    return os.environ.get("WQWARP_ROBOT_USD") or C.WHEELED_GO1_USD
+
+
+def add_robot(builder: newton.ModelBuilder, usd_path: str | None = None) -> None:
+    """Add one wheeled Go1 (free-floating base) to ``builder``; self-collisions off (legs cannot reach each other).
+    A missing or unreadable asset is a ValueError naming the file."""
+    usd_path = usd_path or robot_usd_path()
+    if not os.path.isfile(usd_path):
+        raise ValueError(f"robot asset {usd_path} does not exist (regenerate it with tools/build_wheeled_go1.py, or "
+                         "reinstall wqwarp)")  # fmt: skip
+    joints = builder.joint_count
+    try:
+        builder.add_usd(usd_path, enable_self_collisions=False, floating=True)
+    except Exception as e:  # noqa: BLE001 - USD and Newton raise many types for a broken file
+        detail = " ".join(str(e).split())[:300]  # USD's messages span lines: keep the error to one
+        raise ValueError(f"robot asset {usd_path} could not be read: {type(e).__name__}: {detail}") from e
+    if builder.joint_count - joints < len(C.ACTUATED_JOINT_NAMES):
+        raise ValueError(f"robot asset {usd_path} holds {builder.joint_count - joints} joints; the wheeled Go1 has "
+                         f"{len(C.ACTUATED_JOINT_NAMES)} actuated ones")  # fmt: skip
 
 
 def _builder() -> newton.ModelBuilder:
@@ -55,14 +74,14 @@ def _builder() -> newton.ModelBuilder:
     return b
 
 
-def robot_builder(usd_path: str = C.WHEELED_GO1_USD) -> newton.ModelBuilder:
+def robot_builder(usd_path: str | None = None) -> newton.ModelBuilder:
     """A builder holding one robot, for replication into worlds."""
     b = _builder()
     add_robot(b, usd_path)
     return b
 
 
-def scene_builder(world_count: int, usd_path: str = C.WHEELED_GO1_USD) -> newton.ModelBuilder:
+def scene_builder(world_count: int, usd_path: str | None = None) -> newton.ModelBuilder:
     """``world_count`` robots, one per Newton world, on a shared ground plane."""
     if world_count < 1:
         raise ValueError(f"world_count must be >= 1, got {world_count}")

@@ -185,7 +185,14 @@ class WqRunner(OnPolicyRunner):
         random streams (torch's, the env's and the gait selector's generators) where they stood at the checkpoint
         instead of restarting them from the seed (the robots themselves restart: their states are not saved);
         evaluation leaves it off, so that its own seed decides commands, pushes and resets."""
-        infos = torch.load(path, weights_only=False, map_location=map_location or self.device).get("infos") or {}
+        try:
+            ckpt = torch.load(path, weights_only=False, map_location=map_location or self.device)
+        except Exception as e:  # noqa: BLE001 - a truncated or foreign file raises many types
+            detail = " ".join(str(e).split())[:200]
+            raise ValueError(f"{path} is not a readable checkpoint ({type(e).__name__}: {detail})") from e
+        if not isinstance(ckpt, dict):
+            raise ValueError(f"{path} is not a wqwarp checkpoint (holds a {type(ckpt).__name__})")
+        infos = ckpt.get("infos") or {}
         check_compatible(infos, self.env, path)
         infos = super().load(path, load_cfg, strict, map_location or self.device)
         self.env.estimator.load_state_dict(infos["estimator"])

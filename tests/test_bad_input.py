@@ -1,0 +1,99 @@
+"""Bad input at the entry points: one line naming the problem, exit code 2, nothing existing overwritten and no
+partial file left. (Range checks of each option are tested beside their tools; these are the shared cases: a broken
+or missing robot asset, a truncated or foreign checkpoint, an unwritable output.)"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import io
+import os
+
+import pytest
+import torch
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _script(rel: str):
+    spec = importlib.util.spec_from_file_location(rel.replace("/", "_")[:-3], os.path.join(ROOT, rel))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _exit_code(main, argv) -> tuple[int, str]:
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        try:
+            code = main(argv)
+        except SystemExit as e:
+            code = e.code
+    return code, err.getvalue()
+
+
+@pytest.fixture(scope="module")
+def bad_files(tmp_path_factory, save_checkpoint):
+    from wqwarp.config import make_preset
+
+    d = tmp_path_factory.mktemp("bad")
+    cfg = make_preset("ours")
+    cfg.sim.num_envs = 4
+    good = save_checkpoint(d / "model_0.pt", cfg)
+    data = open(good, "rb").read()
+    (d / "truncated.pt").write_bytes(data[: len(data) // 2])
+    torch.save({"weights": torch.zeros(3)}, d / "foreign.pt")
+    (d / "noise.pt").write_bytes(b"not a checkpoint at all")
+    (d / "broken.usda").write_text("#usda 1.0\n( this is not USD\n")
+    (d / "a_file").write_text("x")
+    return d
+
+
+@pytest.mark.parametrize("name", ["truncated.pt", "foreign.pt", "noise.pt"])
+def test_resume_from_a_broken_checkpoint(bad_files, name, tmp_path):
+    main = _script("train/ppo_newton.py").main
+    code, err = _exit_code(main, ["--num-envs", "4", "--max-iterations", "1", "--resume", str(bad_files / name),
+                                  "--log-dir", str(tmp_path / "run"), "--no-export"])  # fmt: skip
+    assert code == 2 and err.count("\n") == 1 and name in err, err
+    assert not any(f.startswith("model_") for f in os.listdir(tmp_path / "run"))
+
+
+@pytest.mark.parametrize("name", ["truncated.pt", "foreign.pt", "noise.pt"])
+def test_evaluate_a_broken_checkpoint(bad_files, name, tmp_path):
+    main = _script("train/evaluate.py").main
+    out = tmp_path / "eval.json"
+    out.write_text("previous results")
+    code, err = _exit_code(main, ["--checkpoint", str(bad_files / name), "--tasks", "vx", "--num-envs", "2",
+                                  "--seconds", "1", "--json", str(out)])  # fmt: skip
+    assert code == 2 and err.strip().startswith("error:") and err.count("\n") == 1, err
+    assert out.read_text() == "previous results"  # nothing existing overwritten
+    assert sorted(os.listdir(tmp_path)) == ["eval.json"]  # and no partial file
+
+
+@pytest.mark.parametrize("asset", ["missing.usda", "broken.usda"])
+def test_a_missing_or_broken_robot_asset(bad_files, asset, tmp_path, monkeypatch):
+    monkeypatch.setenv("WQWARP_ROBOT_USD", str(bad_files / asset))
+    main = _script("train/ppo_newton.py").main
+    code, err = _exit_code(main, ["--num-envs", "4", "--max-iterations", "1", "--log-dir", str(tmp_path / "run")])
+    assert code == 2 and asset in err and "robot asset" in err and err.count("\n") == 1, err
+    assert not (tmp_path / "run").exists()
+
+
+def test_an_unwritable_log_dir(bad_files):
+    main = _script("train/ppo_newton.py").main
+    code, err = _exit_code(main, ["--num-envs", "4", "--max-iterations", "1",
+                                  "--log-dir", str(bad_files / "a_file" / "run")])  # fmt: skip
+    assert code == 2 and "cannot be written" in err and err.count("\n") == 1, err
+    code, err = _exit_code(main, ["--num-envs", "4", "--max-iterations", "1", "--log-dir", str(bad_files / "a_file")])
+    assert code == 2 and "is a file" in err, err
+    assert (bad_files / "a_file").read_text() == "x"
+
+
+def test_export_usd_to_an_unwritable_place_and_from_a_broken_checkpoint(bad_files, tmp_path):
+    main = _script("tools/export_usd.py").main
+    code, err = _exit_code(main, ["--out", str(bad_files / "a_file" / "x.usda"), "--num-envs", "1", "--seconds", "0.1"])
+    assert code == 2 and err.strip().startswith("error:"), err
+    out = tmp_path / "roll.usda"
+    code, err = _exit_code(main, ["--checkpoint", str(bad_files / "truncated.pt"), "--out", str(out), "--num-envs", "1",
+                                  "--seconds", "0.1"])  # fmt: skip
+    assert code == 2 and "truncated.pt" in err and not out.exists(), err
