@@ -8,6 +8,7 @@ import contextlib
 import importlib.util
 import io
 import os
+import sys
 
 import pytest
 import torch
@@ -18,6 +19,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 def _script(rel: str):
     spec = importlib.util.spec_from_file_location(rel.replace("/", "_")[:-3], os.path.join(ROOT, rel))
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # dataclasses defined in the script look their module up
     spec.loader.exec_module(mod)
     return mod
 
@@ -97,3 +99,15 @@ def test_export_usd_to_an_unwritable_place_and_from_a_broken_checkpoint(bad_file
     code, err = _exit_code(main, ["--checkpoint", str(bad_files / "truncated.pt"), "--out", str(out), "--num-envs", "1",
                                   "--seconds", "0.1"])  # fmt: skip
     assert code == 2 and "truncated.pt" in err and not out.exists(), err
+
+
+SCRIPTS = sorted([f"train/{f}" for f in os.listdir(os.path.join(ROOT, "train")) if f.endswith(".py")]
+                 + [f"tools/{f}" for f in os.listdir(os.path.join(ROOT, "tools")) if f.endswith(".py")])  # fmt: skip
+
+
+@pytest.mark.parametrize("script", SCRIPTS)
+def test_every_entry_point_reports_a_usage_error_in_one_line(script):
+    code, err = _exit_code(_script(script).main, ["--no-such-option", "7"])
+    assert code == 2, (code, err)
+    # one line: the unknown option, or first the required options that are missing
+    assert err.count("\n") == 1 and "error:" in err and ("--no-such-option" in err or "required" in err), err

@@ -26,6 +26,8 @@ import time
 
 import numpy as np
 
+from wqwarp.cli import ArgumentParser
+
 
 def _time(fn, seconds: float) -> tuple[float, int]:
     fn()  # warm-up (compiles, captures)
@@ -102,8 +104,8 @@ def bench_size(n: int, device: str, backend: str, seconds: float, cuda_graph: bo
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 2)[2],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 2)[2],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     ap.add_argument("--sizes", default="1,64,256,1024", help="comma-separated robot counts (default 1,64,256,1024)")
     ap.add_argument("--device", default="cpu", help="Warp device: cpu or cuda:N (default cpu)")
     ap.add_argument("--backend", default="auto", help="auto | mujoco_cpu | mujoco_warp (default auto)")

@@ -39,6 +39,8 @@ import sys
 import tempfile
 import time
 
+from wqwarp.cli import ArgumentParser
+
 STAGES = ("physics", "sim_kernels", "env_kernels", "env_resets", "estimator_inference", "gait_selection",
           "env_torch", "policy_inference", "storage", "returns", "ppo_update", "estimator_fit", "predictor_fit",
           "other")  # fmt: skip
@@ -230,8 +232,8 @@ def bench(n: int, args, threads: dict) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     ap.add_argument("--sizes", default="128,256,512", help="comma-separated robot counts (default 128,256,512)")
     ap.add_argument("--preset", default="ours", help="method preset (default ours: the most work per step)")
     ap.add_argument("--device", default="cpu", help="Warp/torch device: cpu or cuda:N (default cpu)")

@@ -20,7 +20,6 @@ are siblings under the articulation root prim, each at its world pose, joined by
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import sys
@@ -29,6 +28,7 @@ import tempfile
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
 
 from wqwarp import constants as C  # noqa: E402
+from wqwarp.cli import ArgumentParser
 
 ROOT = "/wheeled_go1"
 TRUNK_SPAWN_Z = 0.5
@@ -294,7 +294,7 @@ def render() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=C.WHEELED_GO1_USD, help="output .usda path (default: the committed asset)")
     ap.add_argument("--check", action="store_true", help="exit 1 if the file at --out differs from a fresh build")
     args = ap.parse_args(argv)

@@ -20,7 +20,6 @@ accounted for. Printed per scenario and robot: trunk height, forward speed, p_co
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -28,6 +27,8 @@ import tempfile
 import xml.etree.ElementTree as ET
 
 import numpy as np
+
+from wqwarp.cli import ArgumentParser
 
 SCENARIOS = {"standing": ("driving", (0.0, 0.0, 0.0)), "drive_0.5": ("driving", (0.5, 0.0, 0.0)),
              "drive_1.0": ("driving", (1.0, 0.0, 0.0)), "trot_0": ("trotting", (0.0, 0.0, 0.0)),
@@ -156,7 +157,7 @@ def run(scenario: str, mjcf: str, dt: float, decimation: int, warmup: float, sec
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--mjcf", required=True, help="the authors' resources/wheeled_go1/xml/wheeled_go1.xml")
     ap.add_argument(
         "--scenarios",

@@ -48,6 +48,8 @@ import numpy as np
 import torch
 import warp as wp
 
+from wqwarp.cli import ArgumentParser
+
 wp.config.quiet = True
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -274,8 +276,8 @@ def table(report: dict) -> str:
 
 
 def _parse_args(argv: list[str] | None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     ap.add_argument("--scenarios", default=",".join(SCENARIOS),
                     help=f"comma-separated scenarios (default: all: {', '.join(SCENARIOS)})")  # fmt: skip
     ap.add_argument("--settings", default=DEFAULT_SETTINGS,

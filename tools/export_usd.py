@@ -35,6 +35,7 @@ import time
 
 import numpy as np
 
+from wqwarp.cli import ArgumentParser
 from wqwarp.gaits import GAIT_NAMES
 from wqwarp.usd_export import USD_EXTENSIONS, RolloutRecorder, check_output_path
 
@@ -106,7 +107,7 @@ def parse_command_script(path: str) -> CommandSchedule:
 
 def build_parser() -> argparse.ArgumentParser:
     doc = __doc__.split("\n\n")
-    ap = argparse.ArgumentParser(
+    ap = ArgumentParser(
         prog="tools/export_usd.py",
         description=doc[0],
         epilog="\n\n".join(doc[3:]),

@@ -25,6 +25,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from wqwarp.cli import ArgumentParser
+
 RANGES = {"vx": (-1.0, 1.0), "vy": (-0.7, 0.7), "wz": (-0.7, 0.7)}
 TRACKING_LIMIT = 0.05
 """Squared velocity error [(m/s)^2, (rad/s)^2 summed over v_x, v_y, w] up to which a gait counts as tracking its
@@ -48,8 +50,8 @@ def grid_commands(grid: int) -> list[tuple[str, tuple[float, float, float]]]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     ap.add_argument("--checkpoint", required=True, help="model_<it>.pt of a predictive preset (ours, no_wheel_vel)")
     ap.add_argument("--grid", type=int, default=5, help="values per command axis (default 5: 2 x 25 cells)")
     ap.add_argument("--seconds", type=float, default=4.0, help="rollout length [s]; the second half is measured")

@@ -15,6 +15,8 @@ import argparse
 import os
 import sys
 
+from wqwarp.cli import ArgumentParser
+
 
 def summarise(run_dir: str, last: int) -> dict:
     """tag -> mean over the last ``last`` iterations, for the ``Gait/*``, ``Predictor/*`` and ``Metrics/*`` tags."""
@@ -32,8 +34,8 @@ def summarise(run_dir: str, last: int) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     ap.add_argument("run", help="run directory written by train/ppo_newton.py")
     ap.add_argument("--last", type=int, default=100, help="iterations averaged at the end of the run (default 100)")
     ap.add_argument("--json", default=None, help="also write the summary to this JSON file")

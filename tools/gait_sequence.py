@@ -19,14 +19,15 @@ import argparse
 import sys
 import time
 
-DEFAULT_SEGMENTS = "0.6,0,0:4;0,0.4,0:4;0,0,0.6:4;0,0,0:4;-0.4,0,0:4"
+from wqwarp.cli import ArgumentParser
+from wqwarp.play import parse_segments  # noqa: F401  (re-exported: the segment syntax of this tool)
 
-from wqwarp.play import parse_segments  # noqa: E402  (re-exported: the segment syntax of this tool)
+DEFAULT_SEGMENTS = "0.6,0,0:4;0,0.4,0:4;0,0,0.6:4;0,0,0:4;-0.4,0,0:4"
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     ap.add_argument("--checkpoint", required=True, help="model_<it>.pt written by train/ppo_newton.py")
     ap.add_argument("--preset", default=None, help="preset of the checkpoint (default: from its run's config.json)")
     ap.add_argument("--segments", default=DEFAULT_SEGMENTS, help=f"command segments (default {DEFAULT_SEGMENTS!r})")

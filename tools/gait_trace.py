@@ -22,6 +22,7 @@ import tempfile
 
 import numpy as np
 
+from wqwarp.cli import ArgumentParser
 from wqwarp.gaits import GAIT_NAMES
 
 COLUMNS = (
@@ -95,8 +96,8 @@ def _write_atomic(path: str, write) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 2)[2],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 2)[2],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     ap.add_argument("--gait", required=True, choices=GAIT_NAMES, help="nominal gait from the paper's Table I")
     ap.add_argument("--vx", type=float, default=0.0, help="commanded forward speed [m/s] (default 0)")
     ap.add_argument("--vy", type=float, default=0.0, help="commanded lateral speed [m/s] (default 0; not in Eq. 3)")

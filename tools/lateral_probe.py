@@ -18,13 +18,14 @@ achieved mean v_y (base frame, after 1 s) per amplitude A [m]. Shows whether the
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
 import tempfile
 
 import numpy as np
+
+from wqwarp.cli import ArgumentParser
 
 COMMANDS = (-0.7, -0.5, -0.3, -0.1, 0.1, 0.3, 0.5, 0.7)
 
@@ -97,7 +98,7 @@ def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--checkpoint", default=None, help="probe this policy (model_<it>.pt)")
     ap.add_argument("--open-loop", action="store_true", help="probe the nominal trot plus a foot-y sawtooth")
     ap.add_argument(

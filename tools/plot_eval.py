@@ -10,14 +10,15 @@ Each JSON is written by ``python train/evaluate.py --json``; the legend uses the
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
 
+from wqwarp.cli import ArgumentParser
+
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("results", nargs="+", help="JSON files from train/evaluate.py --json")
     ap.add_argument("--out", required=True, help="output PNG")
     args = ap.parse_args(argv)

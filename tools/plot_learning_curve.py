@@ -10,15 +10,15 @@ first panel gives the wall time of the first run.
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 
+from wqwarp.cli import ArgumentParser
 from wqwarp.report import load_scalars  # noqa: E402  (re-exported)
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("runs", nargs="+", help="run directories written by train/ppo_newton.py")
     ap.add_argument("--out", required=True, help="output PNG")
     ap.add_argument("--labels", default=None, help="semicolon-separated legend labels (default: directory names)")

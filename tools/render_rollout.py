@@ -50,6 +50,7 @@ import time
 
 import numpy as np
 
+from wqwarp.cli import ArgumentParser
 from wqwarp.play import parse_segments  # noqa: E402
 
 EXTENSIONS = (".gif", ".mp4")
@@ -265,8 +266,8 @@ def check_mp4_writer() -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     ap.add_argument("--checkpoint", required=True, help="model_<it>.pt written by train/ppo_newton.py")
     ap.add_argument("--out", required=True, help="video to write: .mp4 (needs imageio-ffmpeg) or .gif")
     ap.add_argument("--preset", default=None, help="preset of the checkpoint (default: from its configuration)")

@@ -21,6 +21,8 @@ import math
 import sys
 import time
 
+from wqwarp.cli import ArgumentParser
+
 
 def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, decimation: int, seed: int,
          progress: bool = False) -> dict:  # fmt: skip
@@ -82,8 +84,8 @@ def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, 
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     ap.add_argument("--robot-steps", type=int, default=1_000_000, help="robot policy steps in all (default 1e6)")
     ap.add_argument("--num-envs", type=int, default=256, help="robots stepped together (default 256)")
     ap.add_argument("--preset", default="ours", help="method preset (default ours)")

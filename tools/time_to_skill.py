@@ -20,6 +20,8 @@ import json
 import os
 import sys
 
+from wqwarp.cli import ArgumentParser
+
 
 def first_below(values: list[float], threshold: float, window: int) -> int | None:
     """Index of the first element whose trailing mean over ``window`` values (fewer at the start) is below
@@ -64,8 +66,8 @@ def analyse(run: str, metric: str, thresholds: list[float], window: int, bench: 
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     ap.add_argument("runs", nargs="+", help="run directories written by train/ppo_newton.py")
     ap.add_argument("--metric", default="Metrics/vx_error", help="scalar to threshold (default Metrics/vx_error)")
     ap.add_argument("--thresholds", default="0.3,0.25,0.2", help="comma-separated thresholds (default 0.3,0.25,0.2)")

@@ -16,6 +16,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from wqwarp.cli import ArgumentParser
+
 
 def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool) -> dict:
     import numpy as np
@@ -58,8 +60,8 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     ap.add_argument("--checkpoint", required=True, help="model_<it>.pt written by train/ppo_newton.py")
     ap.add_argument("--preset", default=None, help="preset of the checkpoint (default: from its run's config.json)")
     ap.add_argument("--vx", type=float, default=0.8, help="held forward command [m/s] (default 0.8)")

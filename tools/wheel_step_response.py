@@ -23,13 +23,14 @@ substep (``Simulator.step`` of one substep each).
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
 import tempfile
 
 import numpy as np
+
+from wqwarp.cli import ArgumentParser
 
 FLIP_TORQUE = 0.06
 """Torques below 1 % of the 6 N m limit [N m] do not count as a sign flip."""
@@ -90,7 +91,7 @@ def _fmt(x, spec):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--speed", type=float, default=0.5, help="loaded run: commanded rolling speed [m/s] (default 0.5)")
     ap.add_argument("--air-target", type=float, default=5.0, help="airborne run: wheel target [rad/s] (default 5)")
     ap.add_argument("--seconds", type=float, default=2.0, help="length of each run [s] (default 2)")

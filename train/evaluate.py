@@ -21,6 +21,8 @@ import dataclasses
 import sys
 import time
 
+from wqwarp.cli import ArgumentParser
+
 
 def main(argv=None) -> int:
     from wqwarp.config import PRESETS
@@ -28,8 +30,8 @@ def main(argv=None) -> int:
     from wqwarp.play import PHYSICS
     from wqwarp.provenance import write_result_json
 
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                                formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    p = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                       formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     p.add_argument("--checkpoint", required=True, help="model_<it>.pt written by train/ppo_newton.py")
     p.add_argument(
         "--preset",

@@ -28,11 +28,13 @@ import os
 import sys
 import time
 
+from wqwarp.cli import ArgumentParser
+
 
 def parse_args(argv=None) -> argparse.Namespace:
     from wqwarp.config import PRESETS
 
-    p = argparse.ArgumentParser(
+    p = ArgumentParser(
         prog="ppo_newton.py",
         description=__doc__.split("\n\n")[0],
         epilog=__doc__.split("\n\n", 1)[1],

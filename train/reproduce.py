@@ -33,6 +33,8 @@ import sys
 import time
 from dataclasses import asdict, dataclass
 
+from wqwarp.cli import ArgumentParser
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 PRESET_ORDER = ("ours", "no_predictor", "no_wheel_vel", "pmtg", "baseline")
@@ -249,8 +251,8 @@ def stage_energymap(args, budget: Budget, preset: str, seed: int) -> bool:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                                formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    p = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                       formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     p.add_argument("--budget", choices=sorted(BUDGETS), default="smoke",
                    help="smoke (minutes, plumbing only), cpu (~2 h on 2 cores: 128 robots x 1000 iterations), gpu "
                    "(the paper's 4096 x 4000; use --device cuda:0). Default smoke")  # fmt: skip
