@@ -66,8 +66,8 @@ def test_evaluate_a_broken_checkpoint(bad_files, name, tmp_path):
     out = tmp_path / "eval.json"
     out.write_text("previous results")
     code, err = _exit_code(main, ["--checkpoint", str(bad_files / name), "--tasks", "vx", "--num-envs", "2",
-                                  "--seconds", "1", "--json", str(out)])  # fmt: skip
-    assert code == 2 and err.strip().startswith("error:") and err.count("\n") == 1, err
+                                  "--seconds", "3", "--json", str(out)])  # fmt: skip
+    assert code == 2 and err.strip().startswith("error:") and err.count("\n") == 1 and name in err, err
     assert out.read_text() == "previous results"  # nothing existing overwritten
     assert sorted(os.listdir(tmp_path)) == ["eval.json"]  # and no partial file
 
@@ -111,3 +111,10 @@ def test_every_entry_point_reports_a_usage_error_in_one_line(script):
     assert code == 2, (code, err)
     # one line: the unknown option, or first the required options that are missing
     assert err.count("\n") == 1 and "error:" in err and ("--no-such-option" in err or "required" in err), err
+
+
+def test_evaluate_into_an_unwritable_place(bad_files):
+    main = _script("train/evaluate.py").main
+    code, err = _exit_code(main, ["--checkpoint", str(bad_files / "model_0.pt"), "--tasks", "vx", "--num-envs", "2",
+                                  "--seconds", "3", "--json", str(bad_files / "a_file" / "eval.json")])  # fmt: skip
+    assert code == 2 and err.count("\n") == 1 and "eval.json" in err, err

@@ -21,7 +21,7 @@ import dataclasses
 import sys
 import time
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli import ArgumentParser, output_problem
 
 
 def main(argv=None) -> int:
@@ -107,6 +107,9 @@ def main(argv=None) -> int:
         return 2
     if args.push_interval <= 0:
         print(f"error: --push-interval must be > 0 s, got {args.push_interval}", file=sys.stderr)
+        return 2
+    if args.json and (problem := output_problem(args.json)):
+        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
         return 2
     if push_protocol:
         try:
