@@ -1,9 +1,10 @@
 """CPU thread counts of training: torch's intra-op threads and the physics threads (``mujoco.rollout``).
 
-Both pools spin on the same cores. When they together ask for more threads than there are free cores - on a laptop,
-any other busy process - each waits for the other's threads at every synchronisation and training slows by 5-7x
-(README, "Threads"). The default gives torch one thread: its networks are small (a few 10^5 multiply-adds per
-robot) and one core runs them at full speed, while the physics, the bulk of the work, gets every core.
+Both pools spin on the same cores. When torch asks for more threads than there are free cores (on a laptop, any other
+busy process holds some), its OpenMP threads wait for the descheduled one at every synchronisation: with one of 2 cores
+busy, torch's own default (2 threads) trained 1.8x slower than one thread, its PPO update 2.2x slower (README, "Speed
+and threads"; an earlier measurement on main saw 5-7x). The default gives torch one thread while collecting: its
+networks are small and one core runs them, while the physics, the bulk of collection, gets every core.
 """
 
 from __future__ import annotations
@@ -11,8 +12,8 @@ from __future__ import annotations
 import os
 
 DEFAULT_TORCH_THREADS = 1
-"""Torch intra-op threads by default (measured, README "Threads": within 1.2x of the best setting idle and under
-load, where torch's own default, one thread per core, is 5-7x slower under load)."""
+"""Torch intra-op threads while collecting, by default (measured, README "Speed and threads": the default settings
+are the best idle and within 1.03x of the best with a core busy, where torch's own default is 1.8x slower)."""
 
 
 def available_cores() -> int:
