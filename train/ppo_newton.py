@@ -87,8 +87,8 @@ def parse_args(argv=None) -> argparse.Namespace:
         default=None,
         help="CPU threads of torch and of the physics together (default: torch 1 while collecting and half the "
         "cores in the PPO update, physics every core; cores are shared among torchrun's processes; measured within "
-        "1.2x of the best setting idle and with a core busy, README 'Speed and threads'). More torch threads than free cores "
-        "slows training ~2x (the PPO update 2-3x) when another process holds a core",
+        "1.2x of the best setting idle and with a core busy, README 'Speed and threads'). More torch threads than "
+        "free cores slows training ~2x (the PPO update 2-3x) when another process holds a core",
     )
     p.add_argument(
         "--torch-threads",
