@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli import ArgumentParser, output_problem, parse_counts
 
 
 def _time(fn, seconds: float) -> tuple[float, int]:
@@ -116,14 +116,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", default=None, help="also write the results as JSON to this path")
     args = ap.parse_args(argv)
     try:
-        sizes = [int(s) for s in args.sizes.split(",") if s.strip()]
-        if not sizes or min(sizes) < 1:
-            raise ValueError
-    except ValueError:
-        print(f"error: --sizes must be positive integers like 1,64,256, got {args.sizes!r}", file=sys.stderr)
+        sizes = parse_counts(args.sizes)
+    except ValueError as e:
+        print(f"error: --sizes: {e}", file=sys.stderr)
         return 2
-    if args.json and not os.path.isdir(os.path.dirname(os.path.abspath(args.json))):
-        print(f"error: directory of --json {args.json!r} does not exist", file=sys.stderr)
+    if args.json and (problem := output_problem(args.json)):
+        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
         return 2
     import warp as wp
 

@@ -36,19 +36,18 @@ import io
 import multiprocessing as mp
 import os
 import sys
-import tempfile
 import time
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli import ArgumentParser, output_problem, parse_counts
 
 STAGES = ("physics", "sim_kernels", "env_kernels", "env_resets", "estimator_inference", "gait_selection",
           "env_torch", "policy_inference", "storage", "returns", "ppo_update", "estimator_fit", "predictor_fit",
           "other")  # fmt: skip
 
 
-def _spin(stop) -> None:
+def _spin(stop, parent: int) -> None:
     x = 0
-    while not stop.is_set():
+    while not stop.is_set() and os.getppid() == parent:  # also ends when its parent is killed
         for _ in range(100000):
             x += 1
 
@@ -63,7 +62,7 @@ class Busy:
     def __enter__(self):
         ctx = mp.get_context("spawn")
         self.stop = ctx.Event()
-        self.procs = [ctx.Process(target=_spin, args=(self.stop,), daemon=True) for _ in range(self.k)]
+        self.procs = [ctx.Process(target=_spin, args=(self.stop, os.getpid()), daemon=True) for _ in range(self.k)]
         for p in self.procs:
             p.start()
         time.sleep(0.5 if self.k else 0.0)
@@ -161,7 +160,6 @@ def bench(n: int, args, threads: dict) -> dict:
     torch.manual_seed(args.seed)
     env = WheeledGo1Env(cfg)
     tcfg = TrainConfig(num_steps_per_env=args.steps_per_env)
-    log_dir = tempfile.mkdtemp(prefix="bench_train_")
     with contextlib.redirect_stdout(io.StringIO()):
         runner = WqRunner(env, tcfg.rsl_rl_dict(), log_dir=None, device=env.device)
     runner.update_threads = threads["update"]
@@ -218,7 +216,6 @@ def bench(n: int, args, threads: dict) -> dict:
     env.collect_training_data = False
     sim.reset(list(range(n)))
     sim_sps = n * timed(sim.step, args.seconds)
-    del log_dir
     return {
         "n": n,
         "sim_steps_per_s": round(sim_sps, 1),
@@ -253,13 +250,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", default=None, help="also write the results as JSON to this path (atomically)")
     args = ap.parse_args(argv)
     try:
-        sizes = [int(s) for s in args.sizes.split(",") if s.strip()]
-        if not sizes or min(sizes) < 1:
-            raise ValueError
-    except ValueError:
-        print(f"error: --sizes must be positive integers like 128,256, got {args.sizes!r}", file=sys.stderr)
+        sizes = parse_counts(args.sizes)
+    except ValueError as e:
+        print(f"error: --sizes: {e}", file=sys.stderr)
         return 2
-    for name in ("iterations", "steps_per_env", "threads", "torch_threads", "physics_threads", "update_threads"):
+    for name in ("iterations", "steps_per_env"):
         v = getattr(args, name)
         if v is not None and v < 1:
             print(f"error: --{name.replace('_', '-')} must be >= 1, got {v}", file=sys.stderr)
@@ -267,8 +262,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.busy < 0 or args.seconds <= 0:
         print("error: --busy must be >= 0 and --seconds > 0", file=sys.stderr)
         return 2
-    if args.json and not os.path.isdir(os.path.dirname(os.path.abspath(args.json))):
-        print(f"error: directory of --json {args.json!r} does not exist", file=sys.stderr)
+    if args.json and (problem := output_problem(args.json)):
+        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
         return 2
     from wqwarp.config import PRESETS
 
@@ -287,7 +282,11 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as e:  # noqa: BLE001 - Warp raises several types for unknown devices
         print(f"error: --device {args.device!r}: {e}", file=sys.stderr)
         return 2
-    threads = configure_threads(args.threads, args.torch_threads, args.physics_threads, args.update_threads)
+    try:
+        threads = configure_threads(args.threads, args.torch_threads, args.physics_threads, args.update_threads)
+    except ValueError as e:
+        print(f"error: --{e}", file=sys.stderr)
+        return 2
     desc = dev.name if dev.is_cuda else f"cpu ({os.cpu_count()} cores)"
     print(f"device: {desc}; preset {args.preset}; threads torch {threads['torch']} update {threads['update']} "
           f"physics {threads['physics']}; "

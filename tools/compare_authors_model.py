@@ -28,7 +28,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli import ArgumentParser, output_problem
 
 SCENARIOS = {"standing": ("driving", (0.0, 0.0, 0.0)), "drive_0.5": ("driving", (0.5, 0.0, 0.0)),
              "drive_1.0": ("driving", (1.0, 0.0, 0.0)), "trot_0": ("trotting", (0.0, 0.0, 0.0)),
@@ -178,8 +178,8 @@ def main(argv=None) -> int:
     if not os.path.isfile(args.mjcf):
         print(f"error: no such MJCF file: {args.mjcf}", file=sys.stderr)
         return 2
-    if args.json and not os.path.isdir(os.path.dirname(os.path.abspath(args.json))):
-        print(f"error: the directory of --json {args.json} does not exist", file=sys.stderr)
+    if args.json and (problem := output_problem(args.json)):
+        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
         return 2
     print("| scenario | robot | height [m] | v_x [m/s] | p_cost [W] | legs [W] | wheels [W] |")
     print("|---|---|---|---|---|---|---|")

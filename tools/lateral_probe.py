@@ -25,7 +25,7 @@ import tempfile
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli import ArgumentParser, output_problem
 
 COMMANDS = (-0.7, -0.5, -0.3, -0.1, 0.1, 0.3, 0.5, 0.7)
 
@@ -113,8 +113,8 @@ def main(argv=None) -> int:
     if args.checkpoint is not None and not os.path.isfile(args.checkpoint):
         print(f"error: no such checkpoint: {args.checkpoint}", file=sys.stderr)
         return 2
-    if args.json and not os.path.isdir(os.path.dirname(os.path.abspath(args.json))):
-        print(f"error: the directory of --json {args.json} does not exist", file=sys.stderr)
+    if args.json and (problem := output_problem(args.json)):
+        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
         return 2
     try:
         amps = [float(x) for x in args.amplitudes.split(",")]

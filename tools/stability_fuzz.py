@@ -21,7 +21,7 @@ import math
 import sys
 import time
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli import ArgumentParser, output_problem
 
 
 def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, decimation: int, seed: int,
@@ -105,10 +105,9 @@ def main(argv=None) -> int:
         print(f"error: unknown --preset {args.preset!r} or --backend {args.backend!r} (presets: "
               f"{', '.join(sorted(PRESETS))}; backends: {', '.join(BACKENDS)})", file=sys.stderr)  # fmt: skip
         return 2
-    import os
 
-    if args.json and not os.path.isdir(os.path.dirname(os.path.abspath(args.json))):
-        print(f"error: directory of --json {args.json!r} does not exist", file=sys.stderr)
+    if args.json and (problem := output_problem(args.json)):
+        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
         return 2
     res = fuzz(args.robot_steps, args.num_envs, args.preset, args.backend, args.dt, args.decimation, args.seed,
                progress=True)  # fmt: skip

@@ -30,7 +30,7 @@ import tempfile
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli import ArgumentParser, output_problem
 
 FLIP_TORQUE = 0.06
 """Torques below 1 % of the 6 N m limit [N m] do not count as a sign flip."""
@@ -127,8 +127,8 @@ def main(argv=None) -> int:
     if not modes or any(m not in ("loaded", "airborne") for m in modes) or args.seconds <= 0.6:
         print("error: --modes takes loaded and/or airborne, and --seconds must exceed 0.6", file=sys.stderr)
         return 2
-    if args.json and not os.path.isdir(os.path.dirname(os.path.abspath(args.json))):
-        print(f"error: the directory of --json {args.json} does not exist", file=sys.stderr)
+    if args.json and (problem := output_problem(args.json)):
+        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
         return 2
     from wqwarp import constants as C
 

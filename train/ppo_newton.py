@@ -28,7 +28,7 @@ import os
 import sys
 import time
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli import ArgumentParser, directory_problem
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -174,14 +174,9 @@ def fail(msg: str) -> None:
 
 def check_writable_dir(d: str, what: str) -> None:
     """Fail (exit 2) unless ``d`` is, or can be created as, a writable directory; creates nothing."""
-    path = os.path.abspath(d)
-    if os.path.exists(path) and not os.path.isdir(path):
-        fail(f"{what} {d!r} is a file, not a directory")
-    parent = path
-    while not os.path.exists(parent):
-        parent = os.path.dirname(parent)
-    if not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK):
-        fail(f"{what} {d!r} cannot be written ({parent} is not a writable directory)")
+    problem = directory_problem(d)
+    if problem:
+        fail(f"{what} {d!r} {problem}")
 
 
 def resolve_log_dir(args) -> str:
@@ -264,9 +259,6 @@ def main(argv=None) -> int:
         fail("--num-envs, --max-iterations, --save-interval and --num-steps-per-env must be positive")
     if args.resume and not os.path.isfile(args.resume):
         fail(f"--resume: no such checkpoint {args.resume!r}")
-    for name in ("threads", "torch_threads", "update_threads", "physics_threads"):
-        if getattr(args, name) is not None and getattr(args, name) < 1:
-            fail(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
     world = int(os.getenv("WORLD_SIZE", "1"))
     rank = int(os.getenv("RANK", "0"))
     device = args.device
@@ -285,7 +277,10 @@ def main(argv=None) -> int:
     torch.manual_seed(args.seed + rank)
     from wqwarp.threads import configure_threads
 
-    threads = configure_threads(args.threads, args.torch_threads, args.physics_threads, args.update_threads)
+    try:
+        threads = configure_threads(args.threads, args.torch_threads, args.physics_threads, args.update_threads)
+    except ValueError as e:
+        fail(f"--{e}")
 
     from wqwarp.config import TrainConfig, make_preset, to_dict
     from wqwarp.env import WheeledGo1Env

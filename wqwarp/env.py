@@ -312,8 +312,7 @@ class WheeledGo1Env(VecEnv):
 
     def _step_metrics(self, b: dict, valid: torch.Tensor) -> dict:
         """Means over the robots whose step is ``valid`` (not diverged)."""
-        w = valid.float()
-        count = w.sum().clamp(min=1.0)
+        count = valid.float().sum().clamp(min=1.0)
         mean = lambda x: torch.where(valid, x, torch.zeros_like(x)).sum() / count  # noqa: E731
         err = torch.abs(b["lin_vel"][:, :2] - self.commands[:, :2])
         werr = torch.abs(b["ang_vel"][:, 2] - self.commands[:, 2])

@@ -205,14 +205,15 @@ class WqRunner(OnPolicyRunner):
             self.env.gait_selector.load_state_dict(state)
         elif self.env.gait_selector.name == "predictive":
             raise ValueError(f"{path} holds no power predictor; it cannot drive the predictive gait selection")
-        sel_rng = self.env.gait_selector.gen.get_state() if hasattr(self.env.gait_selector, "gen") else None
-        self.env.refresh_after_load()
         rng = infos.get("rng") if restore_rng else None
+        selector_gen = getattr(self.env.gait_selector, "gen", None) if rng else None
+        sel_rng = selector_gen.get_state() if selector_gen is not None else None  # as loaded, before the refresh
+        self.env.refresh_after_load()
         if rng:  # after the refresh: the streams continue exactly where the checkpoint left them
             torch.set_rng_state(rng["torch"].cpu())
             self.env.gen.set_state(rng["env"].cpu())
             if sel_rng is not None:
-                self.env.gait_selector.gen.set_state(sel_rng)
+                selector_gen.set_state(sel_rng)
             if "cuda" in rng and self.env.device.startswith("cuda"):
                 torch.cuda.set_rng_state(rng["cuda"].cpu(), self.env.device)
         return infos

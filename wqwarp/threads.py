@@ -52,7 +52,7 @@ def configure_threads(
     for name, v in (("threads", threads), ("torch_threads", torch_threads), ("physics_threads", physics_threads),
                     ("update_threads", update_threads)):  # fmt: skip
         if v is not None and v < 1:
-            raise ValueError(f"{name} must be >= 1, got {v}")
+            raise ValueError(f"{name.replace('_', '-')} must be >= 1, got {v}")
     t = torch_threads or threads or DEFAULT_TORCH_THREADS
     p = physics_threads or threads or default_physics_threads()
     u = update_threads or threads or default_update_threads()

@@ -285,8 +285,6 @@ class Simulator:
                 actuated_qd=wp.zeros((n, 16), dtype=f32),
             )
             self._default_q = robot.default_joint_q(lay)
-            self.default_joint_q = wp.array(self._default_q, dtype=wp.float32)
-            """(23,) Newton coordinates of the default standing pose (device)."""
             self._all_ids = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32)
             self._actuation_cmds = self._record_actuation()
             if self.backend == "mujoco_cpu":
