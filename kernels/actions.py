@@ -63,3 +63,23 @@ def joint_offset_targets(
         leg_q_target[world, j] = default_leg_q[j] + joint_scale * action[world, j]
     for k in range(4):
         wheel_qd_target[world, k] = wp.clamp(wheel_scale * action[world, 12 + k], -wheel_clip, wheel_clip)
+
+
+@wp.kernel
+def offset_targets(
+    leg_q_nominal: wp.array2d(dtype=wp.float32),
+    wheel_qd_nominal: wp.array2d(dtype=wp.float32),
+    leg_offset: wp.array2d(dtype=wp.float32),
+    wheel_offset: wp.array2d(dtype=wp.float32),
+    # outputs
+    leg_q_target: wp.array2d(dtype=wp.float32),
+    wheel_qd_target: wp.array2d(dtype=wp.float32),
+):
+    """Per world: q_des = q_n + dq [rad], v_des = v_n + dv [rad/s], constant offsets on the nominal targets (the
+    leg- and wheel-target inputs whose gradients a differentiable rollout reports); no clipping, so the sum stays
+    differentiable."""
+    world = wp.tid()
+    for j in range(12):
+        leg_q_target[world, j] = leg_q_nominal[world, j] + leg_offset[world, j]
+    for k in range(4):
+        wheel_qd_target[world, k] = wheel_qd_nominal[world, k] + wheel_offset[world, k]

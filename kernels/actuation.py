@@ -65,6 +65,62 @@ def wheel_pid_torque(
     return wp.vec3(tau, i_new, e)
 
 
+@wp.func
+def actuate_robot(
+    world: int,
+    joint_q: wp.array2d(dtype=wp.float32),
+    joint_qd: wp.array2d(dtype=wp.float32),
+    coord_index: wp.array(dtype=wp.int32),
+    dof_index: wp.array(dtype=wp.int32),
+    leg_q_target: wp.array2d(dtype=wp.float32),
+    wheel_qd_target: wp.array2d(dtype=wp.float32),
+    leg_kp: float,
+    leg_kd: float,
+    wheel_kp: float,
+    wheel_ki: float,
+    wheel_kd: float,
+    wheel_i_limit: float,
+    torque_limit: wp.array(dtype=wp.float32),
+    motor_strength: wp.array2d(dtype=wp.float32),
+    dt: float,
+    wheel_integral_in: wp.array2d(dtype=wp.float32),
+    wheel_prev_error_in: wp.array2d(dtype=wp.float32),
+    wheel_integral_out: wp.array2d(dtype=wp.float32),
+    wheel_prev_error_out: wp.array2d(dtype=wp.float32),
+    joint_torque: wp.array2d(dtype=wp.float32),
+    joint_f: wp.array2d(dtype=wp.float32),
+):
+    """Robot ``world``: PD on the 12 leg joints, PID on the 4 wheels, strength scale, clip, scatter into joint_f.
+    The wheel PID state is read from ``*_in`` and written to ``*_out`` (the same arrays for an in-place update)."""
+    for j in range(NUM_ACTUATED):
+        limit = torque_limit[j]
+        q = joint_q[world, coord_index[j]]
+        qd = joint_qd[world, dof_index[j]]
+        ctrl = wp.float32(0.0)
+        if j < NUM_LEG_JOINTS:
+            ctrl = leg_pd_torque(leg_q_target[world, j], q, qd, leg_kp, leg_kd, limit)
+        else:
+            k = j - NUM_LEG_JOINTS
+            pid = wheel_pid_torque(
+                wheel_qd_target[world, k],
+                qd,
+                wheel_integral_in[world, k],
+                wheel_prev_error_in[world, k],
+                wheel_kp,
+                wheel_ki,
+                wheel_kd,
+                wheel_i_limit,
+                limit,
+                dt,
+            )
+            ctrl = pid[0]
+            wheel_integral_out[world, k] = pid[1]
+            wheel_prev_error_out[world, k] = pid[2]
+        tau = wp.clamp(motor_strength[world, j] * ctrl, -limit, limit)
+        joint_torque[world, j] = tau
+        joint_f[world, dof_index[j]] = tau
+
+
 @wp.kernel
 def apply_actuation(
     joint_q: wp.array2d(dtype=wp.float32),
@@ -89,35 +145,45 @@ def apply_actuation(
     joint_torque: wp.array2d(dtype=wp.float32),
     joint_f: wp.array2d(dtype=wp.float32),
 ):
-    """One thread per robot: PD on the 12 leg joints, PID on the 4 wheels, strength scale, clip, scatter."""
+    """One thread per robot: :func:`actuate_robot` with the wheel PID state updated in place."""
     world = wp.tid()
-    for j in range(NUM_ACTUATED):
-        limit = torque_limit[j]
-        q = joint_q[world, coord_index[j]]
-        qd = joint_qd[world, dof_index[j]]
-        ctrl = wp.float32(0.0)
-        if j < NUM_LEG_JOINTS:
-            ctrl = leg_pd_torque(leg_q_target[world, j], q, qd, leg_kp, leg_kd, limit)
-        else:
-            k = j - NUM_LEG_JOINTS
-            pid = wheel_pid_torque(
-                wheel_qd_target[world, k],
-                qd,
-                wheel_integral[world, k],
-                wheel_prev_error[world, k],
-                wheel_kp,
-                wheel_ki,
-                wheel_kd,
-                wheel_i_limit,
-                limit,
-                dt,
-            )
-            ctrl = pid[0]
-            wheel_integral[world, k] = pid[1]
-            wheel_prev_error[world, k] = pid[2]
-        tau = wp.clamp(motor_strength[world, j] * ctrl, -limit, limit)
-        joint_torque[world, j] = tau
-        joint_f[world, dof_index[j]] = tau
+    actuate_robot(world, joint_q, joint_qd, coord_index, dof_index, leg_q_target, wheel_qd_target, leg_kp, leg_kd,
+                  wheel_kp, wheel_ki, wheel_kd, wheel_i_limit, torque_limit, motor_strength, dt, wheel_integral,
+                  wheel_prev_error, wheel_integral, wheel_prev_error, joint_torque, joint_f)  # fmt: skip
+
+
+@wp.kernel
+def apply_actuation_taped(
+    joint_q: wp.array2d(dtype=wp.float32),
+    joint_qd: wp.array2d(dtype=wp.float32),
+    coord_index: wp.array(dtype=wp.int32),
+    dof_index: wp.array(dtype=wp.int32),
+    leg_q_target: wp.array2d(dtype=wp.float32),
+    wheel_qd_target: wp.array2d(dtype=wp.float32),
+    leg_kp: float,
+    leg_kd: float,
+    wheel_kp: float,
+    wheel_ki: float,
+    wheel_kd: float,
+    wheel_i_limit: float,
+    torque_limit: wp.array(dtype=wp.float32),
+    motor_strength: wp.array2d(dtype=wp.float32),
+    dt: float,
+    wheel_integral_in: wp.array2d(dtype=wp.float32),
+    wheel_prev_error_in: wp.array2d(dtype=wp.float32),
+    # outputs
+    wheel_integral_out: wp.array2d(dtype=wp.float32),
+    wheel_prev_error_out: wp.array2d(dtype=wp.float32),
+    joint_torque: wp.array2d(dtype=wp.float32),
+    joint_f: wp.array2d(dtype=wp.float32),
+):
+    """One thread per robot: :func:`actuate_robot` with the wheel PID state read from one pair of arrays and
+    written to another, so that no array is overwritten and ``wp.Tape`` can run the adjoint (differentiable
+    rollouts, ``wqwarp.sim.diffsim``)."""
+    world = wp.tid()
+    actuate_robot(world, joint_q, joint_qd, coord_index, dof_index, leg_q_target, wheel_qd_target, leg_kp, leg_kd,
+                  wheel_kp, wheel_ki, wheel_kd, wheel_i_limit, torque_limit, motor_strength, dt, wheel_integral_in,
+                  wheel_prev_error_in, wheel_integral_out, wheel_prev_error_out, joint_torque, joint_f)  # fmt: skip
 
 
 @wp.kernel

@@ -71,3 +71,59 @@ def contacts_from_sensordata(
         wheel_force[world, k] = wp.length(f) if sensordata[world, c] > wp.float64(0.0) else 0.0
     for k in range(body_found_col.shape[0]):
         body_collision[world, k] = wp.where(sensordata[world, body_found_col[k]] > wp.float64(0.0), 1, 0)
+
+
+@wp.kernel
+def accumulate_penalty_contacts(
+    contact_count: wp.array(dtype=wp.int32),
+    shape0: wp.array(dtype=wp.int32),
+    shape1: wp.array(dtype=wp.int32),
+    point0: wp.array(dtype=wp.vec3),
+    point1: wp.array(dtype=wp.vec3),
+    normal: wp.array(dtype=wp.vec3),
+    margin0: wp.array(dtype=wp.float32),
+    margin1: wp.array(dtype=wp.float32),
+    body_q: wp.array(dtype=wp.transform),
+    shape_body: wp.array(dtype=wp.int32),
+    shape_world: wp.array(dtype=wp.int32),
+    shape_wheel_slot: wp.array(dtype=wp.int32),
+    shape_body_slot: wp.array(dtype=wp.int32),
+    ground_shape: int,
+    ke: float,
+    # outputs
+    wheel_force: wp.array2d(dtype=wp.float32),
+    body_collision: wp.array2d(dtype=wp.int32),
+):
+    """One thread per Newton contact of a penalty (spring-damper) solver: add the elastic normal force ke * depth
+    [N] of a wheel-ground contact to its wheel, flag a penetrating body-ground contact. The depth is computed as in
+    Newton's ``eval_body_contact`` (the contact points in their body frames, moved by the margins along the
+    normal); the damping and friction parts of the force are left out. Zero both outputs before the launch."""
+    i = wp.tid()
+    if i >= contact_count[0]:
+        return
+    a = shape0[i]
+    b = shape1[i]
+    s = a
+    if a == ground_shape:
+        s = b
+    elif b != ground_shape:
+        return
+    if s < 0:
+        return
+    n = -normal[i]
+    pa = point0[i]
+    pb = point1[i]
+    if a >= 0 and shape_body[a] >= 0:
+        pa = wp.transform_point(body_q[shape_body[a]], pa) - margin0[i] * n
+    if b >= 0 and shape_body[b] >= 0:
+        pb = wp.transform_point(body_q[shape_body[b]], pb) + margin1[i] * n
+    depth = -wp.dot(n, pa - pb)
+    if depth <= 0.0:
+        return
+    world = shape_world[s]
+    k = shape_wheel_slot[s]
+    if k >= 0:
+        wp.atomic_add(wheel_force, world, k, ke * depth)
+    c = shape_body_slot[s]
+    if c >= 0:
+        body_collision[world, c] = 1

@@ -257,6 +257,52 @@ def compute_nominal_gait(
     # else: in the air, keep the previous nominal wheel velocity (paper: "preserved from the previous moment")
 
 
+# --- open-loop gait with its parameters as inputs (differentiable) ---------------------------------------------
+GAIT_PARAM_NAMES = ("h_b", "h_s", "frequency", "df_swing", "stance_x")
+"""Columns of the ``params`` input of :func:`open_loop_gait_targets`: body height h_b [m], swing height h_s [m],
+gait frequency f [Hz], swing duty factor DF_swing [-], stance x offset of the foot points [m]."""
+
+
+@wp.kernel
+def open_loop_gait_targets(
+    params: wp.array2d(dtype=float),
+    phase_offsets: wp.array2d(dtype=float),
+    command: wp.array2d(dtype=float),
+    t: float,
+    swing_x_amplitude: float,
+    # outputs
+    leg_joint_target: wp.array2d(dtype=float),
+    wheel_velocity: wp.array2d(dtype=float),
+):
+    """Per (world, leg): the nominal leg targets and wheel speed at time ``t`` [s] of a gait run from t = 0 with
+    constant parameters, no phase residual and no state, so that every output is a function of ``params``
+    ((W, 5), columns ``GAIT_PARAM_NAMES``) that ``wp.Tape`` can differentiate.
+
+    Eq. (1) integrated: phi_i = (offset_i + f t) mod 1, the same phases as :func:`compute_nominal_gait` from a reset
+    at the offsets; then Eq. (2) and the swing x offset, foot IK, and Eq. (3) with d_i read from the nominal target
+    (not the measured legs) for every wheel (no hold in the air: the command is constant, so the held value would be
+    the same up to the small change of d_i). Gradients are exact away from the phase wrap and the swing/stance switch.
+    At the switch (touch-down) F and its slope are continuous, and so is x_swing, but x_swing's slope jumps from
+    -2 pi A / DF_swing to 0: d/df and d/dDF_swing stay finite but jump there (tests/kernels/test_gait_gradients.py)."""
+    world, leg = wp.tid()
+    side = LEG_SIDE[leg]
+    h_b = params[world, 0]
+    h_s = params[world, 1]
+    f = params[world, 2]
+    df = params[world, 3]
+    phi = wrap_phase(phase_offsets[world, leg] + f * t)
+    psi = swing_progress(phi, df)
+    x = NOMINAL_FOOT_X[leg] + params[world, 4] + swing_x(psi, swing_x_amplitude)
+    p_n = wp.vec3(x, NOMINAL_FOOT_Y[leg], swing_height(psi, h_b, h_s))
+    q_n = foot_ik(p_n, side)
+    for j in range(3):
+        leg_joint_target[world, 3 * leg + j] = q_n[j]
+    d = side * HIP_OFFSET_Y + leg_fk(q_n, side)[1]
+    wheel_velocity[world, leg] = nominal_wheel_velocity(
+        command[world, 0], command[world, 2], d, WHEEL_RADIUS, WHEEL_FORWARD_SIGN
+    )
+
+
 # --- Python side ---------------------------------------------------------------------------------------------------
 PHASE_MODES = ("increment", "offset")
 """Names of the phase-residual readings, index = the kernel's ``phase_mode``."""

@@ -30,6 +30,24 @@ def p_cost_term(tau: float, qd: float) -> float:
 
 
 @wp.func
+def smooth_abs(x: float, eps: float) -> float:
+    """sqrt(x^2 + eps^2) - eps: a smooth |x| for gradients, same unit as x and eps (eps > 0).
+
+    Equals 0 at x = 0 and |x| - eps + O(eps^2 / |x|) far from 0, so it underestimates |x| by at most eps; its slope
+    is x / sqrt(x^2 + eps^2), which goes through 0 at x = 0 with slope 1 / eps instead of jumping from -1 to +1.
+    Used only where gradients are taken (``wqwarp.sim.diffsim``); every reported power uses the exact |x|.
+    """
+    return wp.sqrt(x * x + eps * eps) - eps
+
+
+@wp.func
+def p_cost_term_smooth(tau: float, qd: float, eps_tau: float, eps_qd: float) -> float:
+    """Smooth p_cost term smooth_abs(tau, eps_tau) * smooth_abs(qd, eps_qd) [W] for gradients (see
+    :func:`smooth_abs`); below |p_cost_term| by at most eps_tau |qd| + eps_qd |tau| + eps_tau eps_qd."""
+    return smooth_abs(tau, eps_tau) * smooth_abs(qd, eps_qd)
+
+
+@wp.func
 def positive_mech_power_term(tau: float, qd: float) -> float:
     """p = max(tau qd, 0) [W]: positive mechanical power of one joint (no regeneration); tau [N m], qd [rad/s]."""
     return wp.max(tau * qd, 0.0)
@@ -74,9 +92,10 @@ def accumulate_power(
         g = 0
         if j >= NUM_LEG_JOINTS:
             g = 1
-        cost[g] = cost[g] + p_cost_term(tau, qd)
-        mech[g] = mech[g] + positive_mech_power_term(tau, qd)
-        joule[g] = joule[g] + joule_power_term(tau, qd)
+        # `v[g] += ...`, not `v[g] = v[g] + ...`: Warp 1.19's adjoint of the latter double-counts (NVIDIA/warp#1697)
+        cost[g] += p_cost_term(tau, qd)
+        mech[g] += positive_mech_power_term(tau, qd)
+        joule[g] += joule_power_term(tau, qd)
         tsq += tau * tau
         psq += (tau * qd) * (tau * qd)
     p_cost[world] += weight * (cost[0] + cost[1])
@@ -132,3 +151,36 @@ def launch_power(
         record_cmd=record_cmd,
         device=device or joint_torque.device,
     )
+
+
+@wp.kernel
+def accumulate_p_cost_taped(
+    joint_torque: wp.array2d(dtype=wp.float32),
+    joint_qd: wp.array2d(dtype=wp.float32),
+    dof_index: wp.array(dtype=wp.int32),
+    weight: float,
+    eps_tau: float,
+    eps_qd: float,
+    # outputs (accumulated with +=)
+    p_cost_legs: wp.array(dtype=wp.float32),
+    p_cost_wheels: wp.array(dtype=wp.float32),
+    p_cost_smooth: wp.array(dtype=wp.float32),
+):
+    """One thread per robot: add weight * the exact p_cost of the legs and of the wheels, and weight * the smooth
+    p_cost (:func:`p_cost_term_smooth`, all 16 joints) whose gradient a differentiable rollout follows. Only
+    ``+=`` writes, so ``wp.Tape`` differentiates a sum over many substeps into one array correctly."""
+    world = wp.tid()
+    legs = float(0.0)
+    wheels = float(0.0)
+    smooth = float(0.0)
+    for j in range(NUM_ACTUATED):
+        tau = joint_torque[world, j]
+        qd = joint_qd[world, dof_index[j]]
+        if j < NUM_LEG_JOINTS:
+            legs += p_cost_term(tau, qd)
+        else:
+            wheels += p_cost_term(tau, qd)
+        smooth += p_cost_term_smooth(tau, qd, eps_tau, eps_qd)
+    wp.atomic_add(p_cost_legs, world, weight * legs)
+    wp.atomic_add(p_cost_wheels, world, weight * wheels)
+    wp.atomic_add(p_cost_smooth, world, weight * smooth)

@@ -185,3 +185,27 @@ def flag_unstable(
             bad = 1
     if bad == 1:
         unstable[world] = 1
+
+
+@wp.kernel
+def accumulate_base_motion(
+    body_q: wp.array2d(dtype=wp.transform),
+    body_qd: wp.array2d(dtype=wp.spatial_vector),
+    trunk: int,
+    weight: float,
+    # outputs (accumulated with +=)
+    base_velocity: wp.array2d(dtype=wp.float32),
+    base_height: wp.array(dtype=wp.float32),
+):
+    """One thread per robot: add weight * the trunk COM velocity in the base frame (v_x, v_y [m/s], w_z [rad/s]) and
+    weight * the trunk height [m]. Newton's body_qd holds the COM velocity and the angular velocity in the world
+    frame."""
+    world = wp.tid()
+    x = body_q[world, trunk]
+    rot = wp.transform_get_rotation(x)
+    v = wp.quat_rotate_inv(rot, wp.spatial_top(body_qd[world, trunk]))
+    w = wp.quat_rotate_inv(rot, wp.spatial_bottom(body_qd[world, trunk]))
+    wp.atomic_add(base_velocity, world, 0, weight * v[0])
+    wp.atomic_add(base_velocity, world, 1, weight * v[1])
+    wp.atomic_add(base_velocity, world, 2, weight * w[2])
+    wp.atomic_add(base_height, world, weight * wp.transform_get_translation(x)[2])

@@ -31,7 +31,7 @@ import warp as wp
 from wqwarp import constants as C
 from wqwarp import robot
 from wqwarp.kernels import actuation, power
-from wqwarp.kernels.contacts import accumulate_newton_contacts, contacts_from_sensordata
+from wqwarp.kernels.contacts import accumulate_newton_contacts, accumulate_penalty_contacts, contacts_from_sensordata
 from wqwarp.kernels.state import (
     clear_contact_rows,
     flag_unstable,
@@ -41,7 +41,7 @@ from wqwarp.kernels.state import (
     scatter_state_rows,
 )
 
-BACKENDS = ("auto", "mujoco_cpu", "mujoco_warp")
+BACKENDS = ("auto", "mujoco_cpu", "mujoco_warp", "featherstone")
 JOINT_MODELS = ("asset", "authors")
 
 
@@ -105,8 +105,10 @@ class SimConfig:
     device: str = "cpu"
     """Warp device of the Newton model and all buffers: ``cpu`` or ``cuda:N``."""
     backend: str = "auto"
-    """``mujoco_cpu`` (mujoco.rollout on all cores), ``mujoco_warp`` (Newton SolverMuJoCo), or ``auto``:
-    ``mujoco_cpu`` on the CPU device, ``mujoco_warp`` on CUDA."""
+    """``mujoco_cpu`` (mujoco.rollout on all cores), ``mujoco_warp`` (Newton SolverMuJoCo), ``featherstone``
+    (Newton SolverFeatherstone with spring-damper contacts, the physics of the differentiable path
+    ``wqwarp.sim.diffsim``; slow, for few robots), or ``auto``: ``mujoco_cpu`` on the CPU device, ``mujoco_warp`` on
+    CUDA."""
     dt: float = 0.005
     """Physics substep [s]. The paper uses 0.001 with decimation 20; 0.005 x 4 costs ~5x less per policy step."""
     decimation: int = 4
@@ -153,6 +155,16 @@ class SimConfig:
     """A robot whose coordinate exceeds this magnitude [m or rad] counts as diverged (``Simulator.unstable``)."""
     unstable_velocity_limit: float = 1.0e3
     """A robot whose velocity exceeds this magnitude [m/s or rad/s] counts as diverged (wheels run below 50 rad/s)."""
+    contact_ke: float = 2.0e4
+    """``featherstone`` only: normal stiffness of the spring-damper ground contact [N/m]. With ~37 N per wheel it
+    penetrates ~2 mm; stiffer contacts need a smaller dt (explicit contact forces). See ``wqwarp.sim.diffsim``."""
+    contact_kd: float = 300.0
+    """``featherstone`` only: normal contact damping [N s/m] (damping ratio ~0.5 for a quarter of the robot)."""
+    contact_kf: float = 100.0
+    """``featherstone`` only: slope of the regularised Coulomb friction below the slip limit [N s/m]; a wheel's
+    spin is stable under it for kf dt / (m + I / R^2) < 2, i.e. kf < ~240 at dt 0.005."""
+    contact_mu: float = 1.0
+    """``featherstone`` only: Coulomb friction coefficient [-] (the MuJoCo paths' default friction is 1.0 too)."""
     njmax: int | None = None
     """Constraint rows per world for ``mujoco_warp`` (default: Newton's estimate)."""
     nconmax: int | None = None
@@ -289,6 +301,8 @@ class Simulator:
             self._actuation_cmds = self._record_actuation()
             if self.backend == "mujoco_cpu":
                 self._init_mujoco_cpu()
+            elif self.backend == "featherstone":
+                self._init_featherstone()
             else:
                 self._init_mujoco_warp()
             all_ids = np.arange(n, dtype=np.int32)
@@ -347,6 +361,8 @@ class Simulator:
         b.unstable.zero_()
         if self.backend == "mujoco_cpu":
             self._step_mujoco_cpu(actuate)
+        elif self.backend == "featherstone":
+            self._step_featherstone(actuate)
         else:
             self._step_mujoco_warp(actuate)
         cfg = self.cfg
@@ -448,6 +464,9 @@ class Simulator:
         MuJoCo has no restitution coefficient; e is mapped to the contact damping ratio of a spring-damper whose
         bounce has that coefficient: zeta = -ln(e) / sqrt(pi^2 + ln(e)^2) (e -> 0 gives MuJoCo's default 1).
         """
+        if self.backend == "featherstone":
+            raise ValueError("backend 'featherstone' does not randomise dynamics (friction, restitution, mass); "
+                             "turn domain randomisation off")  # fmt: skip
         n = self.num_envs
         mu = np.broadcast_to(np.asarray(friction, np.float64), (n,))
         e = np.clip(np.broadcast_to(np.asarray(restitution, np.float64), (n,)), 1e-6, 0.99)
@@ -574,28 +593,7 @@ class Simulator:
         self.contacts = newton.Contacts(self.solver.get_max_contact_count(), 0, device=self.device)
         kinds = {newton.solvers.SolverBase.ObservableKind.CONTACT_F}
         self.observables = self.solver.observables(kinds, contacts=self.contacts)
-        lay = self.layout
-        shape_body = self.model.shape_body.numpy()
-        shape_world = self.model.shape_world.numpy()
-        wheel_slot = np.full(self.model.shape_count, -1, np.int32)
-        body_slot = np.full(self.model.shape_count, -1, np.int32)
-        ground = -1
-        for s in range(self.model.shape_count):
-            bdy = shape_body[s]
-            if bdy < 0:
-                ground = s
-                continue
-            local = bdy - shape_world[s] * lay.bodies_per_world
-            hits = np.nonzero(lay.wheel_body == local)[0]
-            if hits.size:
-                wheel_slot[s] = hits[0]
-            hits = np.nonzero(lay.collision_body == local)[0]
-            if hits.size:
-                body_slot[s] = hits[0]
-        self._ground_shape = ground
-        self._shape_world = wp.array(np.maximum(shape_world, 0).astype(np.int32), dtype=wp.int32)
-        self._wheel_slot = wp.array(wheel_slot, dtype=wp.int32)
-        self._body_slot = wp.array(body_slot, dtype=wp.int32)
+        self._ground_shape, self._shape_world, self._wheel_slot, self._body_slot = shape_slots(self.model, self.layout)
         self._graph = None
         self._use_graph = cfg.cuda_graph and self.device.is_cuda
         self._reset_mask = wp.zeros(self.num_envs + 1, dtype=wp.bool)  # per world, + Newton's global world
@@ -629,6 +627,61 @@ class Simulator:
             self._graph = cap.graph
             return
         wp.capture_launch(self._graph)
+
+
+    # --- featherstone -------------------------------------------------------------------------------------------
+    def _init_featherstone(self) -> None:
+        from wqwarp.sim import diffsim
+
+        cfg = self.cfg
+        self.solver, self._pipeline, self.contacts = diffsim.penalty_physics(self.model, cfg)
+        self._state_next = self.model.state()
+        self._ground_shape, self._shape_world, self._wheel_slot, self._body_slot = shape_slots(self.model, self.layout)
+
+    def _step_featherstone(self, actuate: bool) -> None:
+        st, nxt = self.state, self._state_next
+        for _ in range(self.cfg.decimation):
+            if actuate:
+                self._actuate()
+            self._pipeline.collide(st, self.contacts)
+            st.clear_forces()
+            self.solver.step(st, nxt, self.control, self.contacts, self.cfg.dt)
+            for name in ("joint_q", "joint_qd", "body_q", "body_qd"):  # keep the views on self.state valid
+                wp.copy(getattr(st, name), getattr(nxt, name))
+        b, c = self.buf, self.contacts
+        b.wheel_force.zero_()
+        b.body_collision.zero_()
+        wp.launch(accumulate_penalty_contacts, dim=c.rigid_contact_max,
+                  inputs=[c.rigid_contact_count, c.rigid_contact_shape0, c.rigid_contact_shape1,
+                          c.rigid_contact_point0, c.rigid_contact_point1, c.rigid_contact_normal,
+                          c.rigid_contact_margin0, c.rigid_contact_margin1, st.body_q, self.model.shape_body,
+                          self._shape_world, self._wheel_slot, self._body_slot, self._ground_shape,
+                          float(self.cfg.contact_ke)],
+                  outputs=[b.wheel_force, b.body_collision], device=self.device)  # fmt: skip
+
+
+def shape_slots(model, layout) -> tuple[int, wp.array, wp.array, wp.array]:
+    """Per Newton shape: its world, its wheel slot (0-3, -1 if not a wheel) and its collision-body slot
+    (``constants.COLLISION_BODY_NAMES``, -1 if none), as int32 Warp arrays, and the ground plane's shape index."""
+    shape_body = model.shape_body.numpy()
+    shape_world = model.shape_world.numpy()
+    wheel_slot = np.full(model.shape_count, -1, np.int32)
+    body_slot = np.full(model.shape_count, -1, np.int32)
+    ground = -1
+    for s in range(model.shape_count):
+        bdy = shape_body[s]
+        if bdy < 0:
+            ground = s
+            continue
+        local = bdy - shape_world[s] * layout.bodies_per_world
+        hits = np.nonzero(layout.wheel_body == local)[0]
+        if hits.size:
+            wheel_slot[s] = hits[0]
+        hits = np.nonzero(layout.collision_body == local)[0]
+        if hits.size:
+            body_slot[s] = hits[0]
+    as_wp = lambda a: wp.array(a, dtype=wp.int32, device=model.device)  # noqa: E731
+    return ground, as_wp(np.maximum(shape_world, 0).astype(np.int32)), as_wp(wheel_slot), as_wp(body_slot)
 
 
 def _add_contact_sensors(spec, mujoco) -> tuple[list[int], list[int]]:

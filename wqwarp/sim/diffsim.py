@@ -1,0 +1,309 @@
+"""Differentiable rollouts of the wheeled Go1 on Newton's Featherstone solver with spring-damper contacts.
+
+The MuJoCo solvers behind :class:`wqwarp.sim.backend.Simulator` are not differentiable. This module runs the same
+robot, the same actuation (``kernels.actuation``: leg PD, wheel PID, torque limits) and the same power metrics
+(``kernels.power``) on ``newton.solvers.SolverFeatherstone``, whose steps ``wp.Tape`` can differentiate, with
+Newton's penalty contact (``SimConfig.contact_ke``, ``contact_kd``, ``contact_kf``, ``contact_mu``). The same physics
+is available to forward-only code as ``SimConfig(backend="featherstone")``.
+
+:class:`DiffRollout` records an open-loop rollout of N robots following the nominal gait (``kernels.gait.
+open_loop_gait_targets``, parameters h_b, h_s, f, DF_swing, stance x per robot) plus constant leg-target and
+wheel-target offsets, and returns the gradients of the horizon means of the smooth p_cost
+(``kernels.power.p_cost_term_smooth``) and of the base velocity with respect to those inputs.
+
+What makes a multi-step tape correct here (each checked by ``tests/sim/test_diffsim.py`` against finite differences):
+
+* every substep has its own state, joint forces, torques, PID state and target arrays, so nothing that the adjoint
+  reads is overwritten;
+* Featherstone keeps its mass matrix, Jacobian and Cholesky factor (``M``, ``J``, ``P``, ``H``, ``L``) in solver-wide
+  buffers; they are swapped for per-substep copies before every step;
+* Featherstone recomputes ``state_in.body_q`` at the start of a step, although the previous step's forward kinematics
+  already wrote it; the two writes would each pass ``body_q``'s gradient on to ``joint_q``, so a recorded function
+  clears ``body_q.grad`` between the two adjoints;
+* collision detection runs outside the tape: contact points (in body frames) and normals are held fixed within a
+  substep, while penetration depth, contact velocity and so the forces stay functions of the state.
+
+Gradients are truncated to the taped horizon: the warm-up that brings the robots to a settled gait is not taped.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from wqwarp import constants as C
+from wqwarp import robot
+from wqwarp.gaits import GAIT_LIBRARY, gait_index
+from wqwarp.kernels import actions, actuation, power
+from wqwarp.kernels import gait as gait_kernels
+from wqwarp.kernels.state import accumulate_base_motion
+
+SOLVER_MATRICES = ("M", "J", "P", "H", "L")
+"""Featherstone's solver-wide buffers that one step writes and its adjoint reads."""
+
+PARAM_NAMES = gait_kernels.GAIT_PARAM_NAMES
+
+
+def penalty_physics(model, cfg):
+    """Set the spring-damper contact of ``cfg`` (``SimConfig.contact_*``) on every shape of ``model`` and build
+    ``(SolverFeatherstone, CollisionPipeline, Contacts)`` for it."""
+    import newton
+
+    for name, value in (("ke", cfg.contact_ke), ("kd", cfg.contact_kd), ("kf", cfg.contact_kf),
+                        ("mu", cfg.contact_mu)):  # fmt: skip
+        getattr(model, f"shape_material_{name}").fill_(float(value))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        solver = newton.solvers.SolverFeatherstone(model)
+        pipeline = newton.CollisionPipeline(model, requires_grad=False)
+    return solver, pipeline, pipeline.contacts()
+
+
+def gait_params(gait: str, h_b: float = C.NOMINAL_BODY_HEIGHT, h_s: float = C.NOMINAL_SWING_HEIGHT) -> np.ndarray:
+    """(5,) float32 nominal-gait parameters (``PARAM_NAMES``) of Table I gait ``gait`` at body height ``h_b`` [m] and
+    swing height ``h_s`` [m]."""
+    g = GAIT_LIBRARY[gait_index(gait)]
+    return np.array([h_b, h_s, g.frequency, g.df_swing, g.stance_x], np.float32)
+
+
+@dataclass
+class RolloutResult:
+    """Horizon means per robot (float64 NumPy arrays, shape (N,) unless noted)."""
+
+    p_cost: np.ndarray
+    """Exact p_cost = sum |tau| |qd| [W]."""
+    p_cost_legs: np.ndarray
+    p_cost_wheels: np.ndarray
+    p_cost_smooth: np.ndarray
+    """The smooth p_cost whose gradient is taken [W] (``kernels.power.p_cost_term_smooth``)."""
+    base_velocity: np.ndarray
+    """(N, 3) v_x, v_y [m/s], w_z [rad/s] of the trunk COM in the base frame."""
+    base_height: np.ndarray
+    """Trunk height [m]."""
+    fell: np.ndarray
+    """bool: the trunk went below 0.12 m or the state stopped being finite."""
+
+
+class DiffRollout:
+    """A taped open-loop rollout of ``num_envs`` robots in gait ``gait`` under a constant ``command``.
+
+    ``cfg`` (``SimConfig``) gives dt, decimation, gains, joint model and contact; ``horizon`` policy steps are
+    taped after ``warmup`` untaped policy steps from the default pose. Inputs (Warp arrays with gradients, set with
+    :meth:`set_inputs`): ``params`` (N, 5) gait parameters, ``leg_offset`` (N, 12) [rad] and ``wheel_offset`` (N, 4)
+    [rad/s] added to the nominal targets. ``eps_tau`` [N m] and ``eps_qd`` [rad/s] set the smooth |x| of the power.
+    """
+
+    def __init__(self, cfg, gait: str, command=(0.3, 0.0, 0.0), horizon: int = 25, warmup: int = 50,
+                 eps_tau: float = 0.05, eps_qd: float = 0.05):  # fmt: skip
+        cfg.validate()
+        if horizon < 1 or warmup < 0:
+            raise ValueError(f"need horizon >= 1 and warmup >= 0 policy steps, got {horizon} and {warmup}")
+        self.cfg = cfg
+        self.device = wp.get_device(cfg.device)
+        self.num_envs = n = cfg.num_envs
+        self.horizon, self.warmup = horizon, warmup
+        self.eps_tau, self.eps_qd = float(eps_tau), float(eps_qd)
+        self.gait = gait
+        from wqwarp.sim.backend import apply_joint_model
+
+        with wp.ScopedDevice(self.device):
+            self.model = robot.scene_builder(n).finalize(device=self.device, requires_grad=True)
+            self.layout = lay = robot.robot_layout(self.model)
+            apply_joint_model(self.model, lay, cfg.joint_model)
+            self.solver, self.pipeline, _ = penalty_physics(self.model, cfg)
+            substeps = horizon * cfg.decimation
+            self.states = [self.model.state(requires_grad=True) for _ in range(substeps + 1)]
+            self._scratch = [self.model.state(requires_grad=False) for _ in range(2)]
+            self.contacts = [self.pipeline.contacts() for _ in range(substeps)]
+            self.control = self.model.control()
+            dofs = self.model.joint_dof_count
+            self.joint_f = [wp.zeros(dofs, dtype=float, requires_grad=True) for _ in range(substeps)]
+            self._warm_f = wp.zeros(dofs, dtype=float)
+            z = lambda *shape: wp.zeros(shape, dtype=float, requires_grad=True)  # noqa: E731
+            self.integral = [z(n, 4) for _ in range(substeps + 1)]
+            self.prev_error = [z(n, 4) for _ in range(substeps + 1)]
+            self.torque = [z(n, 16) for _ in range(substeps)]
+            self.leg_nominal = [z(n, 12) for _ in range(horizon)]
+            self.wheel_nominal = [z(n, 4) for _ in range(horizon)]
+            self.leg_target = [z(n, 12) for _ in range(horizon)]
+            self.wheel_target = [z(n, 4) for _ in range(horizon)]
+            self.matrices = [{k: wp.zeros_like(getattr(self.solver, k), requires_grad=True) for k in SOLVER_MATRICES
+                              if getattr(self.solver, k, None) is not None} for _ in range(substeps)]  # fmt: skip
+            self.params = z(n, len(PARAM_NAMES))
+            self.leg_offset = z(n, 12)
+            self.wheel_offset = z(n, 4)
+            g = GAIT_LIBRARY[gait_index(gait)]
+            self.phase_offsets = wp.array(np.tile(np.asarray(g.phase_offsets, np.float32), (n, 1)), dtype=float)
+            self.command = wp.array(np.tile(np.asarray(command, np.float32), (n, 1)), dtype=float)
+            self.coord_index = wp.array(lay.actuated_coord, dtype=wp.int32)
+            self.dof_index = wp.array(lay.actuated_dof, dtype=wp.int32)
+            self.torque_limit = wp.array(np.asarray(C.TORQUE_LIMITS, np.float32), dtype=float)
+            self.strength = wp.ones((n, 16), dtype=float)
+            self.p_cost_legs = z(n)
+            self.p_cost_wheels = z(n)
+            self.p_cost_smooth = z(n)
+            self.base_velocity = z(n, 3)
+            self.base_height = z(n)
+            self.min_height = np.full(n, np.inf)
+        self.tape: wp.Tape | None = None
+        self.set_inputs(np.tile(gait_params(gait), (n, 1)))
+
+    # --- inputs -------------------------------------------------------------------------------------------------
+    def set_inputs(self, params=None, leg_offset=None, wheel_offset=None) -> None:
+        """Set any of the inputs from NumPy arrays ((N, 5), (N, 12), (N, 4); a 1-D row is used for every robot)."""
+        n = self.num_envs
+        for arr, value in ((self.params, params), (self.leg_offset, leg_offset), (self.wheel_offset, wheel_offset)):
+            if value is not None:
+                v = np.broadcast_to(np.asarray(value, np.float32), arr.shape)
+                arr.assign(np.ascontiguousarray(v))
+        if n != self.params.shape[0]:
+            raise AssertionError
+
+    # --- rollout --------------------------------------------------------------------------------------------------
+    def _rows(self, state, name: str, width: int):
+        return getattr(state, name).reshape((self.num_envs, width))
+
+    def _actuate(self, kernel, state, leg_t, wheel_t, i_in, e_in, i_out, e_out, torque, joint_f) -> None:
+        cfg, lay = self.cfg, self.layout
+        common = [self._rows(state, "joint_q", lay.coords_per_world), self._rows(state, "joint_qd", lay.dofs_per_world),
+                  self.coord_index, self.dof_index, leg_t, wheel_t, cfg.leg_kp, cfg.leg_kd, cfg.wheel_kp, cfg.wheel_ki,
+                  cfg.wheel_kd, cfg.wheel_i_limit, self.torque_limit, self.strength, cfg.dt]  # fmt: skip
+        jf = joint_f.reshape((self.num_envs, lay.dofs_per_world))
+        if kernel is actuation.apply_actuation:
+            wp.launch(kernel, dim=self.num_envs, inputs=[*common, i_in, e_in], outputs=[torque, jf])
+        else:
+            wp.launch(kernel, dim=self.num_envs, inputs=[*common, i_in, e_in], outputs=[i_out, e_out, torque, jf])
+
+    def _targets(self, step: int, t: float, leg_t, wheel_t) -> None:
+        n = self.num_envs
+        wp.launch(gait_kernels.open_loop_gait_targets, dim=(n, 4),
+                  inputs=[self.params, self.phase_offsets, self.command, float(t), float(C.MAX_HORIZONTAL_OFFSET)],
+                  outputs=[self.leg_nominal[step], self.wheel_nominal[step]])  # fmt: skip
+        wp.launch(actions.offset_targets, dim=n,
+                  inputs=[self.leg_nominal[step], self.wheel_nominal[step], self.leg_offset, self.wheel_offset],
+                  outputs=[leg_t, wheel_t])  # fmt: skip
+
+    def _warm_start(self) -> None:
+        """Untaped warm-up from the default pose; leaves its final state and PID state in ``states[0]``."""
+        import newton
+
+        cfg, lay, n = self.cfg, self.layout, self.num_envs
+        a, b = self._scratch
+        q0 = np.tile(robot.default_joint_q(lay), (n, 1)).reshape(-1)
+        a.joint_q.assign(q0)
+        a.joint_qd.zero_()
+        newton.eval_fk(self.model, a.joint_q, a.joint_qd, a)
+        self.integral[0].zero_()
+        self.prev_error[0].zero_()
+        self.control.joint_f = self._warm_f
+        contacts = self.contacts[0]
+        for p in range(self.warmup):
+            self._targets(0, p * self.policy_dt, self.leg_target[0], self.wheel_target[0])
+            for _ in range(cfg.decimation):
+                self._actuate(actuation.apply_actuation, a, self.leg_target[0], self.wheel_target[0], self.integral[0],
+                              self.prev_error[0], None, None, self.torque[0], self._warm_f)  # fmt: skip
+                self.pipeline.collide(a, contacts)
+                a.clear_forces()
+                self.solver.step(a, b, self.control, contacts, cfg.dt)
+                a, b = b, a
+        s0 = self.states[0]
+        wp.copy(s0.joint_q, a.joint_q)
+        wp.copy(s0.joint_qd, a.joint_qd)
+        newton.eval_fk(self.model, s0.joint_q, s0.joint_qd, s0)
+        self.min_height = a.joint_q.numpy().reshape(n, -1)[:, 2].astype(np.float64)
+
+    @property
+    def policy_dt(self) -> float:
+        return self.cfg.dt * self.cfg.decimation
+
+    def run(self, record: bool = True, warm_start: bool = True) -> RolloutResult:
+        """Warm up (``warm_start``; else start from the last warm-up's end state, so that finite differences see the
+        same start as the truncated gradient), then run the horizon (on a new ``wp.Tape`` if ``record``) and return
+        its means."""
+        cfg, lay, n = self.cfg, self.layout, self.num_envs
+        if warm_start:
+            self._warm_start()
+        for arr in (self.p_cost_legs, self.p_cost_wheels, self.p_cost_smooth, self.base_velocity, self.base_height):
+            arr.zero_()
+        substeps = self.horizon * cfg.decimation
+        weight = 1.0 / substeps
+        tape = wp.Tape() if record else None
+        self.tape = tape
+        saved = {k: getattr(self.solver, k) for k in self.matrices[0]}
+        heights = []
+
+        def taped(fn):
+            if tape is None:
+                fn()
+                return
+            with tape:
+                fn()
+
+        try:
+            for p in range(self.horizon):
+                t = (self.warmup + p) * self.policy_dt
+                taped(lambda p=p, t=t: self._targets(p, t, self.leg_target[p], self.wheel_target[p]))
+                for k in range(cfg.decimation):
+                    i = p * cfg.decimation + k
+                    s, s1 = self.states[i], self.states[i + 1]
+                    self.pipeline.collide(s, self.contacts[i])  # untaped: contact geometry fixed in the substep
+                    s.clear_forces()
+                    for name, arr in self.matrices[i].items():
+                        setattr(self.solver, name, arr)
+                    self.control.joint_f = self.joint_f[i]
+
+                    def substep(i=i, p=p, s=s, s1=s1):
+                        self._actuate(actuation.apply_actuation_taped, s, self.leg_target[p], self.wheel_target[p],
+                                      self.integral[i], self.prev_error[i], self.integral[i + 1],
+                                      self.prev_error[i + 1], self.torque[i], self.joint_f[i])  # fmt: skip
+                        wp.launch(power.accumulate_p_cost_taped, dim=n,
+                                  inputs=[self.torque[i], self._rows(s, "joint_qd", lay.dofs_per_world),
+                                          self.dof_index, weight, self.eps_tau, self.eps_qd],
+                                  outputs=[self.p_cost_legs, self.p_cost_wheels, self.p_cost_smooth])  # fmt: skip
+                        if tape is not None:  # Featherstone rewrites s.body_q: pass its gradient on once
+                            tape.record_func(lambda s=s: s.body_q.grad.zero_(), [s.body_q])
+                        self.solver.step(s, s1, self.control, self.contacts[i], cfg.dt)
+                        wp.launch(accumulate_base_motion, dim=n,
+                                  inputs=[self._rows(s1, "body_q", lay.bodies_per_world),
+                                          self._rows(s1, "body_qd", lay.bodies_per_world), int(lay.trunk_body), weight],
+                                  outputs=[self.base_velocity, self.base_height])  # fmt: skip
+
+                    taped(substep)
+                    heights.append(s1.joint_q.numpy().reshape(n, -1)[:, 2])
+        finally:
+            for name, arr in saved.items():
+                setattr(self.solver, name, arr)
+        h = np.minimum(self.min_height, np.min(np.stack(heights), axis=0))
+        final = self.states[-1].joint_q.numpy().reshape(n, -1)
+        return RolloutResult(
+            p_cost=self.p_cost_legs.numpy().astype(np.float64) + self.p_cost_wheels.numpy(),
+            p_cost_legs=self.p_cost_legs.numpy().astype(np.float64),
+            p_cost_wheels=self.p_cost_wheels.numpy().astype(np.float64),
+            p_cost_smooth=self.p_cost_smooth.numpy().astype(np.float64),
+            base_velocity=self.base_velocity.numpy().astype(np.float64),
+            base_height=self.base_height.numpy().astype(np.float64),
+            fell=(h < 0.12) | ~np.isfinite(final).all(axis=1),
+        )
+
+    def gradients(self, p_cost_weight=None, velocity_weight=None, height_weight=None) -> dict:
+        """Backward pass of the last recorded :meth:`run`: the gradient of
+        sum_w (p_cost_weight[w] * p_cost_smooth[w] + velocity_weight[w] . base_velocity[w] + height_weight[w] *
+        base_height[w]) with respect to ``params`` (N, 5), ``leg_offset`` (N, 12) and ``wheel_offset`` (N, 4), as
+        NumPy arrays. Weights: (N,), (N, 3) and (N,) NumPy arrays or None (0)."""
+        if self.tape is None:
+            raise RuntimeError("no recorded rollout: call run(record=True) first")
+        n = self.num_envs
+        seeds = {}
+        for arr, w, shape in ((self.p_cost_smooth, p_cost_weight, (n,)), (self.base_velocity, velocity_weight, (n, 3)),
+                              (self.base_height, height_weight, (n,))):  # fmt: skip
+            if w is not None:
+                seeds[arr] = wp.array(np.broadcast_to(np.asarray(w, np.float32), shape).copy(), dtype=float,
+                                      device=self.device)  # fmt: skip
+        self.tape.zero()
+        self.tape.backward(grads=seeds)
+        out = {"params": self.params.grad.numpy().copy(), "leg_offset": self.leg_offset.grad.numpy().copy(),
+               "wheel_offset": self.wheel_offset.grad.numpy().copy()}  # fmt: skip
+        return out
