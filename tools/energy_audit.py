@@ -104,7 +104,8 @@ def setting_name(dt: float, decimation: int) -> str:
     return f"{dt:g}x{decimation}"
 
 
-def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: float, num_envs: int) -> dict:
+def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: float, num_envs: int,
+                 backend: str = "auto") -> dict:
     """Run one scenario at one physics setting and return its window means (see the module docstring)."""
     from wqwarp import constants as C
     from wqwarp import robot
@@ -118,7 +119,8 @@ def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: 
     # air_wheels: a decimation-1 simulator stepped `decimation` times per policy step (same physics, the targets
     # being constant) so that every substep's torque is seen; the gaits use the setting as the policy would.
     sim_steps = decimation if airborne else 1
-    sim = Simulator(SimConfig(num_envs=n, device="cpu", dt=dt, decimation=1 if airborne else decimation))
+    sim = Simulator(SimConfig(num_envs=n, device="cpu", dt=dt, decimation=1 if airborne else decimation,
+                              backend=backend))
     policy_dt = dt * decimation
     warmup_steps = int(round(warmup / policy_dt))
     window_steps = int(round(seconds / policy_dt))
@@ -207,7 +209,7 @@ def _ratio(a: float, b: float) -> float | None:
 
 
 def audit(scenarios: list[str], settings: list[tuple[float, int]], warmup: float, seconds: float, num_envs: int,
-          quiet: bool = False) -> dict:  # fmt: skip
+          quiet: bool = False, backend: str = "auto") -> dict:  # fmt: skip
     """Every scenario at every setting: {scenario: {"gait", "command", "results": {setting: {...}}, "ratio"}}."""
     out = {}
     t0 = time.perf_counter()
@@ -216,7 +218,7 @@ def audit(scenarios: list[str], settings: list[tuple[float, int]], warmup: float
         results = {}
         for dt, decimation in settings:
             s = setting_name(dt, decimation)
-            results[s] = run_scenario(name, dt, decimation, warmup, seconds, num_envs)
+            results[s] = run_scenario(name, dt, decimation, warmup, seconds, num_envs, backend)
             if not quiet:
                 r = results[s]
                 print(f"[{time.perf_counter() - t0:7.1f} s] {name:<10} dt {s:<8} p_cost {r['p_cost']:7.2f} W "
@@ -288,6 +290,9 @@ def _parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--num-envs", type=int, default=2, help="robots per scenario and setting (default 2)")
     ap.add_argument("--json", default=None,
                     help=f"output JSON path (default {DEFAULT_JSON} in the repository root)")  # fmt: skip
+    ap.add_argument("--backend", default="auto", choices=("auto", "mujoco_cpu", "featherstone"),
+                    help="physics: auto (MuJoCo on the CPU), mujoco_cpu, or featherstone (the differentiable path's "
+                         "solver with spring-damper contact, SimConfig.contact_*)")  # fmt: skip
     ap.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     return ap.parse_args(argv)
 
@@ -326,7 +331,8 @@ def main(argv: list[str] | None = None) -> int:
     from wqwarp.provenance import git_state, write_result_json
     from wqwarp.sim.backend import SimConfig
 
-    sim_config = {k: v for k, v in dataclasses.asdict(SimConfig()).items() if k not in ("num_envs", "dt", "decimation")}
+    sim_config = {k: v for k, v in dataclasses.asdict(SimConfig(backend=args.backend)).items()
+                  if k not in ("num_envs", "dt", "decimation")}  # fmt: skip
     report = {
         "command": shlex.join(["python", "tools/energy_audit.py", *(sys.argv[1:] if argv is None else argv)]),
         "git": git_state(),
@@ -338,7 +344,7 @@ def main(argv: list[str] | None = None) -> int:
             {"name": setting_name(dt, dec), "dt": dt, "decimation": dec, "policy_dt": dt * dec} for dt, dec in settings
         ],
         "sim_config": sim_config,
-        "scenarios": audit(scenarios, settings, args.warmup, args.seconds, args.num_envs, args.quiet),
+        "scenarios": audit(scenarios, settings, args.warmup, args.seconds, args.num_envs, args.quiet, args.backend),
     }
     write_result_json(path, report)
     print(table(report))

@@ -17,9 +17,6 @@ What makes a multi-step tape correct here (each checked by ``tests/sim/test_diff
   reads is overwritten;
 * Featherstone keeps its mass matrix, Jacobian and Cholesky factor (``M``, ``J``, ``P``, ``H``, ``L``) in solver-wide
   buffers; they are swapped for per-substep copies before every step;
-* Featherstone recomputes ``state_in.body_q`` at the start of a step, although the previous step's forward kinematics
-  already wrote it; the two writes would each pass ``body_q``'s gradient on to ``joint_q``, so a recorded function
-  clears ``body_q.grad`` between the two adjoints;
 * collision detection runs outside the tape: contact points (in body frames) and normals are held fixed within a
   substep, while penetration depth, contact velocity and so the forces stay functions of the state.
 
@@ -97,7 +94,7 @@ class DiffRollout:
     """
 
     def __init__(self, cfg, gait: str, command=(0.3, 0.0, 0.0), horizon: int = 25, warmup: int = 50,
-                 eps_tau: float = 0.05, eps_qd: float = 0.05):  # fmt: skip
+                 eps_tau: float = 0.05, eps_qd: float = 0.05, *, _swap_matrices: bool = True):  # fmt: skip
         cfg.validate()
         if horizon < 1 or warmup < 0:
             raise ValueError(f"need horizon >= 1 and warmup >= 0 policy steps, got {horizon} and {warmup}")
@@ -107,6 +104,7 @@ class DiffRollout:
         self.horizon, self.warmup = horizon, warmup
         self.eps_tau, self.eps_qd = float(eps_tau), float(eps_qd)
         self.gait = gait
+        self._swap = _swap_matrices  # off only in the test that shows why the swap is needed
         from wqwarp.sim.backend import apply_joint_model
 
         with wp.ScopedDevice(self.device):
@@ -251,7 +249,7 @@ class DiffRollout:
                     s, s1 = self.states[i], self.states[i + 1]
                     self.pipeline.collide(s, self.contacts[i])  # untaped: contact geometry fixed in the substep
                     s.clear_forces()
-                    for name, arr in self.matrices[i].items():
+                    for name, arr in self.matrices[i].items() if self._swap else ():
                         setattr(self.solver, name, arr)
                     self.control.joint_f = self.joint_f[i]
 
@@ -263,8 +261,6 @@ class DiffRollout:
                                   inputs=[self.torque[i], self._rows(s, "joint_qd", lay.dofs_per_world),
                                           self.dof_index, weight, self.eps_tau, self.eps_qd],
                                   outputs=[self.p_cost_legs, self.p_cost_wheels, self.p_cost_smooth])  # fmt: skip
-                        if tape is not None:  # Featherstone rewrites s.body_q: pass its gradient on once
-                            tape.record_func(lambda s=s: s.body_q.grad.zero_(), [s.body_q])
                         self.solver.step(s, s1, self.control, self.contacts[i], cfg.dt)
                         wp.launch(accumulate_base_motion, dim=n,
                                   inputs=[self._rows(s1, "body_q", lay.bodies_per_world),
