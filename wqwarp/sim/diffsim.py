@@ -39,6 +39,7 @@ from wqwarp import robot
 from wqwarp.gaits import GAIT_LIBRARY, gait_index
 from wqwarp.kernels import actions, actuation, power
 from wqwarp.kernels import gait as gait_kernels
+from wqwarp.kernels.contacts import anchor_contact_points, anchored_penalty_contacts
 from wqwarp.kernels.state import accumulate_base_motion
 
 SOLVER_MATRICES = ("M", "J", "P", "H", "L")
@@ -60,6 +61,19 @@ def penalty_physics(model, cfg):
         solver = newton.solvers.SolverFeatherstone(model)
         pipeline = newton.CollisionPipeline(model, requires_grad=False)
     return solver, pipeline, pipeline.contacts()
+
+
+def shape_anchor_bodies(model, layout) -> np.ndarray:
+    """Per shape, the body whose frame carries its contact points in :func:`kernels.contacts.anchored_penalty_contacts`:
+    for a wheel its parent (the calf side, which does not spin), for any other shape its own body (0 for the
+    ground, unused)."""
+    parent = np.full(model.body_count, -1, np.int64)
+    parent[model.joint_child.numpy()] = model.joint_parent.numpy()
+    wheels = set()
+    for w in range(model.world_count):
+        wheels.update((layout.wheel_body + w * layout.bodies_per_world).tolist())
+    body = model.shape_body.numpy()
+    return np.array([parent[b] if b in wheels else max(b, 0) for b in body], np.int32)
 
 
 def gait_params(gait: str, h_b: float = C.NOMINAL_BODY_HEIGHT, h_s: float = C.NOMINAL_SWING_HEIGHT) -> np.ndarray:
@@ -97,7 +111,8 @@ class DiffRollout:
     """
 
     def __init__(self, cfg, gait: str, command=(0.3, 0.0, 0.0), horizon: int = 25, warmup: int = 50,
-                 eps_tau: float = 0.05, eps_qd: float = 0.05, *, _swap_matrices: bool = True):  # fmt: skip
+                 eps_tau: float = 0.05, eps_qd: float = 0.05, anchored_contacts: bool = True, *,
+                 _swap_matrices: bool = True):  # fmt: skip
         cfg.validate()
         if horizon < 1 or warmup < 0:
             raise ValueError(f"need horizon >= 1 and warmup >= 0 policy steps, got {horizon} and {warmup}")
@@ -108,6 +123,10 @@ class DiffRollout:
         self.eps_tau, self.eps_qd = float(eps_tau), float(eps_qd)
         self.gait = gait
         self._swap = _swap_matrices  # off only in the test that shows why the swap is needed
+        self.anchored_contacts = anchored_contacts
+        """Evaluate the contact forces with ``kernels.contacts.anchored_penalty_contacts`` (a wheel's contact point
+        carried by its calf, so it does not turn with the wheel within a substep) instead of inside Featherstone
+        (Newton's ``eval_body_contact``, the point fixed on the wheel). Same forward forces; see the README."""
         from wqwarp.sim.backend import apply_joint_model
 
         with wp.ScopedDevice(self.device):
@@ -119,6 +138,9 @@ class DiffRollout:
             self.states = [self.model.state(requires_grad=True) for _ in range(substeps + 1)]
             self._scratch = [self.model.state(requires_grad=False) for _ in range(2)]
             self.contacts = [self.pipeline.contacts() for _ in range(substeps)]
+            cmax = self.contacts[0].rigid_contact_max
+            self.anchored = [(wp.zeros(cmax, dtype=wp.vec3), wp.zeros(cmax, dtype=wp.vec3)) for _ in range(substeps)]
+            self.shape_anchor = wp.array(shape_anchor_bodies(self.model, lay), dtype=wp.int32)
             self.control = self.model.control()
             dofs = self.model.joint_dof_count
             self.joint_f = [wp.zeros(dofs, dtype=float, requires_grad=True) for _ in range(substeps)]
@@ -216,6 +238,15 @@ class DiffRollout:
         newton.eval_fk(self.model, s0.joint_q, s0.joint_qd, s0)
         self.min_height = a.joint_q.numpy().reshape(n, -1)[:, 2].astype(np.float64)
 
+    def _anchored_contact_forces(self, state, c, anchored) -> None:
+        cfg, m = self.cfg, self.model
+        wp.launch(anchored_penalty_contacts, dim=c.rigid_contact_max,
+                  inputs=[c.rigid_contact_count, c.rigid_contact_shape0, c.rigid_contact_shape1, anchored[0],
+                          anchored[1], c.rigid_contact_normal, c.rigid_contact_margin0, c.rigid_contact_margin1,
+                          state.body_q, state.body_qd, m.body_com, m.shape_body, self.shape_anchor,
+                          float(cfg.contact_ke), float(cfg.contact_kd), float(cfg.contact_kf), float(cfg.contact_mu)],
+                  outputs=[state.body_f])  # fmt: skip
+
     @property
     def policy_dt(self) -> float:
         return self.cfg.dt * self.cfg.decimation
@@ -250,8 +281,15 @@ class DiffRollout:
                 for k in range(cfg.decimation):
                     i = p * cfg.decimation + k
                     s, s1 = self.states[i], self.states[i + 1]
-                    self.pipeline.collide(s, self.contacts[i])  # untaped: contact geometry fixed in the substep
+                    c = self.contacts[i]
+                    self.pipeline.collide(s, c)  # untaped: contact geometry fixed in the substep
                     s.clear_forces()
+                    if self.anchored_contacts:
+                        wp.launch(anchor_contact_points, dim=c.rigid_contact_max,
+                                  inputs=[c.rigid_contact_count, c.rigid_contact_shape0, c.rigid_contact_shape1,
+                                          c.rigid_contact_point0, c.rigid_contact_point1, s.body_q,
+                                          self.model.shape_body, self.shape_anchor],
+                                  outputs=list(self.anchored[i]))  # fmt: skip
                     for name, arr in self.matrices[i].items() if self._swap else ():
                         setattr(self.solver, name, arr)
                     self.control.joint_f = self.joint_f[i]
@@ -264,7 +302,11 @@ class DiffRollout:
                                   inputs=[self.torque[i], self._rows(s, "joint_qd", lay.dofs_per_world),
                                           self.dof_index, weight, self.eps_tau, self.eps_qd],
                                   outputs=[self.p_cost_legs, self.p_cost_wheels, self.p_cost_smooth])  # fmt: skip
-                        self.solver.step(s, s1, self.control, self.contacts[i], cfg.dt)
+                        contacts = self.contacts[i]
+                        if self.anchored_contacts:
+                            self._anchored_contact_forces(s, contacts, self.anchored[i])
+                            contacts = None
+                        self.solver.step(s, s1, self.control, contacts, cfg.dt)
                         wp.launch(accumulate_base_motion, dim=n,
                                   inputs=[self._rows(s1, "body_q", lay.bodies_per_world),
                                           self._rows(s1, "body_qd", lay.bodies_per_world), int(lay.trunk_body), weight],
