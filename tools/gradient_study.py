@@ -32,11 +32,21 @@ from wqwarp.cli import ArgumentParser, output_problem
 PARAM_SCALE = np.array([0.2, 0.1, 1.0, 0.4, 0.05])
 """Typical size of each gait parameter (h_b [m], h_s [m], f [Hz], DF_swing [-], stance x [m]): gradients are
 multiplied by it before vectors are compared."""
-FD_STEP = 0.01 * PARAM_SCALE
-"""Central-difference step per parameter: 1 % of its scale."""
-FD_STEP_FINE = 0.001 * PARAM_SCALE
+FD_FRACTION = 0.01
+"""Central-difference step per input: 1 % of its scale."""
+FD_FRACTION_FINE = 0.001
 """A second, 10x smaller step: where the two finite differences disagree, the output is not smooth on that scale and
 finite differences are no reference for the tape."""
+
+
+PARAM_NAMES = ("h_b", "h_s", "frequency", "df_swing", "stance_x")
+INPUTS = [("params", k, name, PARAM_SCALE[k]) for k, name in enumerate(PARAM_NAMES)]
+INPUTS += [("leg_offset", 0, "FR hip", 0.1), ("leg_offset", 1, "FR thigh", 0.1),
+           ("leg_offset", 2, "FR calf", 0.1), ("leg_offset", 10, "RL thigh", 0.1),
+           ("wheel_offset", 0, "FR wheel", 2.0), ("wheel_offset", 3, "RL wheel", 2.0)]
+"""Inputs whose gradients are checked: (DiffRollout input, column, name, scale). Leg-target offsets [rad] have scale
+0.1 rad, wheel-speed offsets [rad/s] 2 rad/s."""
+GROUPS = {"gait": slice(0, 5), "legs": slice(5, 9), "wheels": slice(9, 11)}
 
 
 def study_point(gait: str, vx: float, dt: float, horizon_s: float, warmup_s: float) -> dict:
@@ -48,54 +58,64 @@ def study_point(gait: str, vx: float, dt: float, horizon_s: float, warmup_s: flo
     cfg = SimConfig(num_envs=1, dt=dt, decimation=decimation, backend="featherstone")
     roll = DiffRollout(cfg, gait, (vx, 0.0, 0.0), horizon=max(1, round(horizon_s / policy_dt)),
                        warmup=round(warmup_s / policy_dt))  # fmt: skip
-    base = gait_params(gait)
+    zeros = np.zeros
+    base = {"params": gait_params(gait), "leg_offset": zeros(12, np.float32), "wheel_offset": zeros(4, np.float32)}
+    scale = np.array([x[3] for x in INPUTS])
     t0 = time.time()
     res = roll.run()
-    g_p = roll.gradients(p_cost_weight=np.ones(1))["params"][0]
-    g_v = roll.gradients(velocity_weight=np.array([[1.0, 0.0, 0.0]]))["params"][0]
-    def central(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        fd_p, fd_v = np.zeros(5), np.zeros(5)
-        for j in range(5):
+    gp = roll.gradients(p_cost_weight=np.ones(1))
+    g_p = np.array([gp[key][0, k] for key, k, _, _ in INPUTS])
+    gv = roll.gradients(velocity_weight=np.array([[1.0, 0.0, 0.0]]))
+    g_v = np.array([gv[key][0, k] for key, k, _, _ in INPUTS])
+
+    def central(fraction: float) -> tuple[np.ndarray, np.ndarray]:
+        fd_p, fd_v = np.zeros(len(INPUTS)), np.zeros(len(INPUTS))
+        for j, (key, k, _, sc) in enumerate(INPUTS):
+            h = fraction * sc
             out = []
             for sgn in (1.0, -1.0):
-                p = base.copy()
-                p[j] += sgn * steps[j]
-                roll.set_inputs(p)
+                x = base[key].copy()
+                x[k] += sgn * h
+                roll.set_inputs(**{key: x})
                 out.append(roll.run(record=False, warm_start=False))
-            fd_p[j] = (out[0].p_cost_smooth[0] - out[1].p_cost_smooth[0]) / (2 * steps[j])
-            fd_v[j] = (out[0].base_velocity[0, 0] - out[1].base_velocity[0, 0]) / (2 * steps[j])
-        roll.set_inputs(base)
+            roll.set_inputs(**{key: base[key]})
+            fd_p[j] = (out[0].p_cost_smooth[0] - out[1].p_cost_smooth[0]) / (2 * h)
+            fd_v[j] = (out[0].base_velocity[0, 0] - out[1].base_velocity[0, 0]) / (2 * h)
         return fd_p, fd_v
 
-    fd_p, fd_v = central(FD_STEP)
-    fine_p, fine_v = central(FD_STEP_FINE)
+    fd_p, fd_v = central(FD_FRACTION)
+    fine_p, fine_v = central(FD_FRACTION_FINE)
 
     def cos_rel(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
-        a, b = x * PARAM_SCALE, y * PARAM_SCALE
-        cos = float(a @ b / (np.linalg.norm(a) * np.linalg.norm(b) + 1e-30))
-        return cos, float(np.linalg.norm(a - b) / (np.linalg.norm(b) + 1e-30))
+        cos = float(x @ y / (np.linalg.norm(x) * np.linalg.norm(y) + 1e-30))
+        return cos, float(np.linalg.norm(x - y) / (np.linalg.norm(y) + 1e-30))
 
     def compare(tape: np.ndarray, fd: np.ndarray, fine: np.ndarray) -> dict:
-        cos, rel = cos_rel(tape, fd)
-        return {"cosine": cos, "rel_error": rel, "cosine_fine": cos_rel(tape, fine)[0],
-                "fd_consistency": cos_rel(fine, fd)[0], "tape_norm": float(np.linalg.norm(tape * PARAM_SCALE)),
-                "fd_norm": float(np.linalg.norm(fd * PARAM_SCALE)), "tape": tape.tolist(), "fd": fd.tolist(),
-                "fd_fine": fine.tolist()}  # fmt: skip
+        a, b, c = tape * scale, fd * scale, fine * scale
+        out = {}
+        for name, sl in GROUPS.items():
+            cos, rel = cos_rel(a[sl], b[sl])
+            out[name] = {"cosine": cos, "rel_error": rel, "cosine_fine": cos_rel(a[sl], c[sl])[0],
+                         "fd_consistency": cos_rel(c[sl], b[sl])[0],
+                         "tape_norm": float(np.linalg.norm(a[sl]))}  # fmt: skip
+        out.update(tape=tape.tolist(), fd=fd.tolist(), fd_fine=fine.tolist())
+        return out
 
-    return {"dt": dt, "decimation": decimation, "horizon_s": roll.horizon * policy_dt, "substeps":
-            roll.horizon * decimation, "p_cost": float(res.p_cost[0]), "vx": float(res.base_velocity[0, 0]),
-            "fell": bool(res.fell[0]), "p_cost_smooth": compare(g_p, fd_p, fine_p), "vx_grad": compare(g_v, fd_v, fine_v),
+    return {"dt": dt, "decimation": decimation, "horizon_s": roll.horizon * policy_dt,
+            "substeps": roll.horizon * decimation, "p_cost": float(res.p_cost[0]),
+            "vx": float(res.base_velocity[0, 0]), "fell": bool(res.fell[0]),
+            "p_cost_smooth": compare(g_p, fd_p, fine_p), "vx_grad": compare(g_v, fd_v, fine_v),
             "seconds": time.time() - t0}  # fmt: skip
 
 
 def table(points: list[dict]) -> str:
-    rows = ["| dt [s] | horizon [s] | p_cost cos | p_cost rel err | p_cost fd 1 % vs 0.1 % | v_x cos | v_x rel err | "
-            "v_x fd 1 % vs 0.1 % | |grad v_x| |", "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    rows = ["| dt [s] | horizon [s] | output | " + " | ".join(f"{g}: cos / rel err / fd 1 % vs 0.1 %" for g in GROUPS)
+            + " |", "|---|---|---|" + "---|" * len(GROUPS)]  # fmt: skip
     for p in points:
-        a, b = p["p_cost_smooth"], p["vx_grad"]
-        rows.append(f"| {p['dt']:g} | {p['horizon_s']:.2f} | {a['cosine']:.3f} | {a['rel_error']:.2g} | "
-                    f"{a['fd_consistency']:.3f} | {b['cosine']:.3f} | {b['rel_error']:.2g} | {b['fd_consistency']:.3f} | "
-                    f"{b['tape_norm']:.3g} |")  # fmt: skip
+        for key, label in (("p_cost_smooth", "p_cost"), ("vx_grad", "v_x")):
+            cells = [f"{p[key][g]['cosine']:.3f} / {p[key][g]['rel_error']:.2g} / {p[key][g]['fd_consistency']:.3f}"
+                     for g in GROUPS]  # fmt: skip
+            rows.append(f"| {p['dt']:g} | {p['horizon_s']:.2f} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(rows)
 
 
@@ -111,9 +131,11 @@ def plot(points: list[dict], path: str) -> None:
         h = [p["horizon_s"] for p in pts]
         for key, style in (("p_cost_smooth", "-o"), ("vx_grad", "--s")):
             label = f"dt {dt:g}, {'p_cost' if key == 'p_cost_smooth' else 'v_x'}"
-            axes[0].plot(h, [p[key]["cosine"] for p in pts], style, label=label)
-            axes[1].loglog(h, [p[key]["rel_error"] for p in pts], style, label=label)
-    axes[0].set(xscale="log", xlabel="taped horizon [s]", ylabel="cosine(tape, finite differences)", ylim=(-1.05, 1.05))
+            axes[0].plot(h, [p[key]["gait"]["cosine"] for p in pts], style,
+                         label=label)  # fmt: skip
+            axes[1].loglog(h, [p[key]["gait"]["rel_error"] for p in pts], style, label=label)
+    axes[0].set(xscale="log", xlabel="taped horizon [s]", ylabel="gait parameters: cosine(tape, fd)",
+                ylim=(-1.05, 1.05))  # fmt: skip
     axes[1].set(xlabel="taped horizon [s]", ylabel="||tape - fd|| / ||fd||")
     axes[0].legend(fontsize=7)
     fig.tight_layout()
@@ -125,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--gait", default="trotting", help="Table I gait (default trotting)")
     ap.add_argument("--vx", type=float, default=0.3, help="commanded forward speed [m/s] (default 0.3)")
     ap.add_argument("--dts", default="0.005,0.002,0.001", help="physics steps [s], comma-separated")
-    ap.add_argument("--horizons", default="0.02,0.05,0.1,0.2,0.5", help="taped horizons [s], comma-separated")
+    ap.add_argument("--horizons", default="0.02,0.05,0.1,0.2,0.5,1.0", help="taped horizons [s], comma-separated")
     ap.add_argument("--warmup", type=float, default=0.5, help="untaped warm-up before the horizon [s] (default 0.5)")
     ap.add_argument("--json", default=None, help="write the results here (JSON)")
     ap.add_argument("--plot", default=None, help="write the figure here (PNG)")
@@ -154,14 +176,16 @@ def main(argv: list[str] | None = None) -> int:
             t0 = time.time()
             p = study_point(args.gait, args.vx, dt, h, args.warmup)
             points.append(p)
-            print(f"dt {dt:g} horizon {p['horizon_s']:.2f} s: p_cost cos {p['p_cost_smooth']['cosine']:.3f}, v_x cos "
-                  f"{p['vx_grad']['cosine']:.3f} ({time.time() - t0:.1f} s)", file=sys.stderr, flush=True)  # fmt: skip
+            print(f"dt {dt:g} horizon {p['horizon_s']:.2f} s: gait-parameter cos p_cost "
+                  f"{p['p_cost_smooth']['gait']['cosine']:.3f}, v_x {p['vx_grad']['gait']['cosine']:.3f} "
+                  f"({time.time() - t0:.1f} s)", file=sys.stderr, flush=True)  # fmt: skip
     print(table(points))
     if args.json:
         from wqwarp.provenance import write_result_json
 
-        write_result_json(args.json, {"gait": args.gait, "vx": args.vx, "warmup_s": args.warmup,
-                                      "param_scale": PARAM_SCALE.tolist(), "fd_step": FD_STEP.tolist(),
+        inputs = [{"input": a, "column": b, "name": c, "scale": float(d)} for a, b, c, d in INPUTS]
+        write_result_json(args.json, {"gait": args.gait, "vx": args.vx, "warmup_s": args.warmup, "inputs": inputs,
+                                      "fd_fractions": [FD_FRACTION, FD_FRACTION_FINE],
                                       "points": points})  # fmt: skip
     if args.plot:
         plot(points, args.plot)
