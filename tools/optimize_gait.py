@@ -60,6 +60,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--warmup", type=float, default=d.warmup_s, help=f"untaped warm-up [s] (default {d.warmup_s})")
     ap.add_argument("--windows", type=int, default=d.windows, help=f"robots (phase-spread windows) per iteration "
                     f"(default {d.windows})")  # fmt: skip
+    ap.add_argument("--patience", type=int, default=d.patience, help=f"iterations without a better J before returning "
+                    f"to the best iterate with half the step (default {d.patience})")  # fmt: skip
     ap.add_argument("--free", default=",".join(d.free), help="comma-separated parameters to tune (default: all five)")
     ap.add_argument("--w-speed", type=float, default=d.w_speed, help=f"speed penalty w_v (default {d.w_speed:g})")
     ap.add_argument("--w-height", type=float, default=d.w_height, help=f"height penalty w_h (default {d.w_height:g})")
@@ -79,8 +81,8 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"unknown parameter {', '.join(bad) or '(none)'} in --free; choose from {', '.join(PARAM_NAMES)}")
     if not (0.05 <= args.vx <= 1.5):
         ap.error(f"--vx must lie in [0.05, 1.5] m/s, got {args.vx}")
-    if args.iterations < 0 or args.windows < 1 or args.lr <= 0 or args.eval_seconds <= 0:
-        ap.error("need --iterations >= 0, --windows >= 1, --lr > 0 and --eval-seconds > 0")
+    if args.iterations < 0 or args.windows < 1 or args.lr <= 0 or args.eval_seconds <= 0 or args.patience < 1:
+        ap.error("need --iterations >= 0, --windows >= 1, --lr > 0, --patience >= 1 and --eval-seconds > 0")
     if not (0 < args.dt <= 0.02) or args.horizon <= 0 or args.warmup < 0:
         ap.error("need 0 < --dt <= 0.02, --horizon > 0 and --warmup >= 0")
     if args.json:
@@ -94,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
 
     cfg = TuneConfig(gait=args.gait, vx=args.vx, dt=args.dt, horizon_s=args.horizon, warmup_s=args.warmup,
                      windows=args.windows, iterations=args.iterations, lr=args.lr, w_speed=args.w_speed,
-                     w_height=args.w_height, free=free)  # fmt: skip
+                     w_height=args.w_height, free=free, patience=args.patience)  # fmt: skip
     t0 = time.time()
 
     def progress(e):

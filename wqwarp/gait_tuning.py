@@ -64,6 +64,10 @@ class TuneConfig:
     iterations: int = 30
     lr: float = 0.03
     """Adam step in units of ``PARAM_SCALE``."""
+    patience: int = 3
+    """Iterations without a new best J after which the parameters return to the best iterate, Adam's moments are
+    reset and the step is halved (the window-averaged J is noisy and its truncated gradient biased, so Adam's
+    momentum can carry the parameters away from a good iterate)."""
     w_speed: float = 2.0e4
     """w_v [J s^2 / m^3]: 0.05 m/s of speed error costs 50 J/m."""
     w_height: float = 5.0e5
@@ -88,7 +92,8 @@ def objective_weights(cfg: TuneConfig, res, z0: float, n: int) -> tuple[np.ndarr
 
 
 def optimize(cfg: TuneConfig, progress=None) -> dict:
-    """Adam on J (module docstring). Returns {"config", "start", "best", "history": [{"iteration", "J", "p_cost",
+    """Adam on J (module docstring), returning to the best iterate with a halved step after ``cfg.patience``
+    iterations without improvement. Returns {"config", "start", "best", "history": [{"iteration", "J", "p_cost",
     "vx", "height", "params", "grad"}]}; "best" is the iterate with the lowest J among those whose windows all
     stayed up."""
     import warp as wp
@@ -116,6 +121,7 @@ def optimize(cfg: TuneConfig, progress=None) -> dict:
     v = np.zeros(5)
     b1, b2 = 0.9, 0.999
     history, z0 = [], None
+    lr, best_j, best_theta, since_best, k = cfg.lr, np.inf, theta.copy(), 0, 0
     for it in range(cfg.iterations + 1):
         t0 = time.time()
         roll.set_inputs(theta.astype(np.float32))
@@ -125,7 +131,7 @@ def optimize(cfg: TuneConfig, progress=None) -> dict:
         wpc, wv, wz, j = objective_weights(cfg, res, z0, n)
         grad = roll.gradients(p_cost_weight=wpc, velocity_weight=wv, height_weight=wz)["params"].sum(0)
         grad = np.where(mask, grad, 0.0).astype(np.float64)
-        entry = {"iteration": it, "J": j, "p_cost": float(res.p_cost.mean()), "p_cost_smooth":
+        entry = {"iteration": it, "J": j, "lr": lr, "p_cost": float(res.p_cost.mean()), "p_cost_smooth":
                  float(res.p_cost_smooth.mean()), "vx": float(res.base_velocity[:, 0].mean()),
                  "height": float(res.base_height.mean()), "fell": int(res.fell.sum()), "params": theta.tolist(),
                  "grad": grad.tolist(), "seconds": time.time() - t0}  # fmt: skip
@@ -134,10 +140,20 @@ def optimize(cfg: TuneConfig, progress=None) -> dict:
             progress(entry)
         if it == cfg.iterations or not np.isfinite(grad).all():
             break
+        if j < best_j and not res.fell.any():
+            best_j, best_theta, since_best = j, theta.copy(), 0
+        else:
+            since_best += 1
+        if since_best >= cfg.patience:  # back to the best iterate with a smaller step
+            theta, lr, since_best, k = best_theta.copy(), lr * 0.5, 0, 0
+            m[:] = 0.0
+            v[:] = 0.0
+            continue
         gs = grad * PARAM_SCALE  # gradient w.r.t. theta / scale
         m = b1 * m + (1 - b1) * gs
         v = b2 * v + (1 - b2) * gs * gs
-        step = cfg.lr * (m / (1 - b1 ** (it + 1))) / (np.sqrt(v / (1 - b2 ** (it + 1))) + 1e-8)
+        k += 1
+        step = lr * (m / (1 - b1**k)) / (np.sqrt(v / (1 - b2**k)) + 1e-8)
         theta = np.clip(theta - np.where(mask, step * PARAM_SCALE, 0.0), bounds[:, 0], bounds[:, 1])
     wp.synchronize()
     ok = [h for h in history if h["fell"] == 0] or history

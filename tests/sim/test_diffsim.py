@@ -150,6 +150,23 @@ def test_param_bounds_keep_the_gaits_apart():
         assert ((p >= b[:, 0]) & (p <= b[:, 1])).all()  # Table I lies inside
 
 
+def test_optimize_runs_inside_the_bounds_and_keeps_its_best_iterate():
+    from wqwarp.gait_tuning import optimize
+
+    cfg = TuneConfig(gait="trotting", vx=0.3, dt=0.005, horizon_s=0.04, warmup_s=0.1, windows=2, iterations=3,
+                     free=("h_s", "frequency"))  # fmt: skip
+    out = optimize(cfg)
+    hist = out["history"]
+    assert len(hist) == 4 and all(np.isfinite(h["J"]) for h in hist)
+    b = np.asarray(out["bounds"])
+    for h in hist:
+        p = np.asarray(h["params"])
+        assert ((p >= b[:, 0] - 1e-9) & (p <= b[:, 1] + 1e-9)).all()
+        np.testing.assert_allclose(p[[0, 3, 4]], gait_params("trotting")[[0, 3, 4]], atol=1e-6)  # not free: fixed
+    assert np.abs(np.diff([h["params"][2] for h in hist])).max() > 0  # the free ones move
+    assert out["best"]["J"] == min(h["J"] for h in hist if h["fell"] == 0)
+
+
 def test_objective_weights_are_the_gradient_of_j():
     cfg = TuneConfig(vx=0.3, w_speed=2e4, w_height=5e5)
     n = 3
