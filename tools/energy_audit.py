@@ -105,8 +105,10 @@ def setting_name(dt: float, decimation: int) -> str:
 
 
 def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: float, num_envs: int,
-                 backend: str = "auto") -> dict:
-    """Run one scenario at one physics setting and return its window means (see the module docstring)."""
+                 backend: str = "auto", trace: list | None = None) -> dict:
+    """Run one scenario at one physics setting and return its window means (see the module docstring). With
+    ``trace`` (a list), append per policy step, warm-up included, the robot means of time [s], trunk height [m],
+    base v_x [m/s], yaw rate [rad/s] and p_cost (legs, wheels) [W] as a dict."""
     from wqwarp import constants as C
     from wqwarp import robot
     from wqwarp.env import quat_rotate_inv
@@ -170,12 +172,21 @@ def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: 
                 flips += int((big & (np.sign(tau) != np.sign(prev_tau))).sum())
                 flip_pairs += 1
             prev_tau = tau
-        if not in_window:
+        if not (in_window or trace is not None):
             continue
         jq, jqd = sim.joint_q.numpy(), sim.joint_qd.numpy()
-        vx += float(quat_rotate_inv(torch.from_numpy(jq[:, 3:7]), torch.from_numpy(jqd[:, 0:3]))[:, 0].mean())
-        wz += float(jqd[:, 5].mean())  # yaw rate: world-frame angular velocity about z
-        height += float(jq[:, 2].mean())
+        step_vx = float(quat_rotate_inv(torch.from_numpy(jq[:, 3:7]), torch.from_numpy(jqd[:, 0:3]))[:, 0].mean())
+        step_wz = float(jqd[:, 5].mean())  # yaw rate: world-frame angular velocity about z
+        step_z = float(jq[:, 2].mean())
+        if trace is not None:
+            trace.append({"t": (k + 1) * policy_dt, "height": step_z, "v_x": step_vx, "w_z": step_wz,
+                          **{p: float(getattr(sim, p).numpy().mean()) for p in ("p_cost", "p_cost_legs",
+                                                                                 "p_cost_wheels")}})  # fmt: skip
+        if not in_window:
+            continue
+        vx += step_vx
+        wz += step_wz
+        height += step_z
 
     m = 1.0 / window_steps
     out = {
