@@ -60,6 +60,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--warmup", type=float, default=d.warmup_s, help=f"untaped warm-up [s] (default {d.warmup_s})")
     ap.add_argument("--windows", type=int, default=d.windows, help=f"robots (phase-spread windows) per iteration "
                     f"(default {d.windows})")  # fmt: skip
+    ap.add_argument("--accept-seconds", type=float, default=d.accept_seconds, help="untaped measurement after the "
+                    f"warm-up that picks the best iterate and triggers restarts [s]; 0: the taped windows' J (default "
+                    f"{d.accept_seconds})")  # fmt: skip
     ap.add_argument("--patience", type=int, default=d.patience, help=f"iterations without a better J before returning "
                     f"to the best iterate with half the step (default {d.patience})")  # fmt: skip
     ap.add_argument("--free", default=",".join(d.free), help="comma-separated parameters to tune (default: all five)")
@@ -83,8 +86,8 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--vx must lie in [0.05, 1.5] m/s, got {args.vx}")
     if args.iterations < 0 or args.windows < 1 or args.lr <= 0 or args.eval_seconds <= 0 or args.patience < 1:
         ap.error("need --iterations >= 0, --windows >= 1, --lr > 0, --patience >= 1 and --eval-seconds > 0")
-    if not (0 < args.dt <= 0.02) or args.horizon <= 0 or args.warmup < 0:
-        ap.error("need 0 < --dt <= 0.02, --horizon > 0 and --warmup >= 0")
+    if not (0 < args.dt <= 0.02) or args.horizon <= 0 or args.warmup < 0 or args.accept_seconds < 0:
+        ap.error("need 0 < --dt <= 0.02, --horizon > 0, --warmup >= 0 and --accept-seconds >= 0")
     if args.json:
         problem = output_problem(args.json)
         if problem:
@@ -96,12 +99,14 @@ def main(argv: list[str] | None = None) -> int:
 
     cfg = TuneConfig(gait=args.gait, vx=args.vx, dt=args.dt, horizon_s=args.horizon, warmup_s=args.warmup,
                      windows=args.windows, iterations=args.iterations, lr=args.lr, w_speed=args.w_speed,
-                     w_height=args.w_height, free=free, patience=args.patience)  # fmt: skip
+                     w_height=args.w_height, free=free, patience=args.patience,
+                     accept_seconds=args.accept_seconds)  # fmt: skip
     t0 = time.time()
 
     def progress(e):
-        print(f"[{time.time() - t0:6.1f} s] it {e['iteration']:3d} J {e['J']:8.1f} p_cost {e['p_cost']:6.1f} W v_x "
-              f"{e['vx']:.3f} z {e['height']:.3f} params {' '.join(f'{x:.4f}' for x in e['params'])}",
+        print(f"[{time.time() - t0:6.1f} s] it {e['iteration']:3d} J {e['J']:8.1f} (accept {e['J_accept']:7.1f}) "
+              f"p_cost {e['p_cost']:6.1f} W v_x {e['vx']:.3f} z {e['height']:.3f} params "
+              f"{' '.join(f'{x:.4f}' for x in e['params'])}",
               file=sys.stderr, flush=True)  # fmt: skip
 
     result = optimize(cfg, progress)

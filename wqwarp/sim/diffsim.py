@@ -48,6 +48,8 @@ SOLVER_MATRICES = ("M", "J", "P", "H", "L")
 """Featherstone's solver-wide buffers that one step writes and its adjoint reads."""
 
 PARAM_NAMES = gait_kernels.GAIT_PARAM_NAMES
+FALL_HEIGHT = 0.12
+"""A trunk below this height [m] counts as fallen (standing: ~0.27 m)."""
 
 
 def penalty_physics(model, cfg):
@@ -100,7 +102,7 @@ class RolloutResult:
     base_height: np.ndarray
     """Trunk height [m]."""
     fell: np.ndarray
-    """bool: the trunk went below 0.12 m or the state stopped being finite."""
+    """bool: the trunk went below ``FALL_HEIGHT`` or the state stopped being finite."""
 
 
 class DiffRollout:
@@ -211,34 +213,92 @@ class DiffRollout:
                   inputs=[self.leg_nominal[step], self.wheel_nominal[step], self.leg_offset, self.wheel_offset],
                   outputs=[leg_t, wheel_t])  # fmt: skip
 
-    def _warm_start(self) -> None:
-        """Untaped warm-up from the default pose; leaves its final state and PID state in ``states[0]``."""
+    def _untaped(self, first: int, steps: int, measure: bool = False, reset: bool = False) -> np.ndarray:
+        """Run policy steps ``first`` .. ``first + steps`` untaped on the two scratch states (from the default pose if
+        ``reset``; the PID state lives in ``integral[0]`` / ``prev_error[0]``). With ``measure``, add each substep's
+        exact and smooth p_cost and base motion, weighted 1 / (steps * decimation), to the output arrays. Returns
+        the lowest trunk height per robot seen at the policy steps."""
         import newton
 
         cfg, lay, n = self.cfg, self.layout, self.num_envs
         a, b = self._scratch
-        q0 = np.tile(robot.default_joint_q(lay), (n, 1)).reshape(-1)
-        a.joint_q.assign(q0)
-        a.joint_qd.zero_()
-        newton.eval_fk(self.model, a.joint_q, a.joint_qd, a)
-        self.integral[0].zero_()
-        self.prev_error[0].zero_()
+        if reset:
+            a.joint_q.assign(np.tile(robot.default_joint_q(lay), (n, 1)).reshape(-1))
+            a.joint_qd.zero_()
+            newton.eval_fk(self.model, a.joint_q, a.joint_qd, a)
+            self.integral[0].zero_()
+            self.prev_error[0].zero_()
         self.control.joint_f = self._warm_f
         contacts = self.contacts[0]
-        for p in range(self.warmup):
+        weight = 1.0 / max(1, steps * cfg.decimation)
+        low = np.full(n, np.inf)
+        for p in range(first, first + steps):
             self._targets(0, p * self.policy_dt, self.leg_target[0], self.wheel_target[0])
             for _ in range(cfg.decimation):
                 self._actuate(actuation.apply_actuation, a, self.leg_target[0], self.wheel_target[0], self.integral[0],
                               self.prev_error[0], None, None, self.torque[0], self._warm_f)  # fmt: skip
+                if measure:
+                    wp.launch(power.accumulate_p_cost_taped, dim=n,
+                              inputs=[self.torque[0], self._rows(a, "joint_qd", lay.dofs_per_world), self.dof_index,
+                                      weight, self.eps_tau, self.eps_qd],
+                              outputs=[self.p_cost_legs, self.p_cost_wheels, self.p_cost_smooth])  # fmt: skip
                 self.pipeline.collide(a, contacts)
                 a.clear_forces()
                 self.solver.step(a, b, self.control, contacts, cfg.dt)
+                if measure:
+                    wp.launch(accumulate_base_motion, dim=n,
+                              inputs=[self._rows(b, "body_q", lay.bodies_per_world),
+                                      self._rows(b, "body_qd", lay.bodies_per_world), int(lay.trunk_body), weight],
+                              outputs=[self.base_velocity, self.base_height])  # fmt: skip
                 a, b = b, a
-        s0 = self.states[0]
+            low = np.minimum(low, a.joint_q.numpy().reshape(n, -1)[:, 2])
+        self._scratch = [a, b]
+        return low
+
+    def _warm_start(self) -> None:
+        """Untaped warm-up from the default pose; leaves its final state in ``states[0]`` (PID state in
+        ``integral[0]`` / ``prev_error[0]``)."""
+        import newton
+
+        self._untaped(0, self.warmup, reset=True)
+        a, s0 = self._scratch[0], self.states[0]
         wp.copy(s0.joint_q, a.joint_q)
         wp.copy(s0.joint_qd, a.joint_qd)
         newton.eval_fk(self.model, s0.joint_q, s0.joint_qd, s0)
-        self.min_height = a.joint_q.numpy().reshape(n, -1)[:, 2].astype(np.float64)
+        self.min_height = a.joint_q.numpy().reshape(self.num_envs, -1)[:, 2].astype(np.float64)
+
+    def measure(self, seconds: float, warm_start: bool = True) -> RolloutResult:
+        """Untaped, no gradient: the warm-up (``warm_start``; else continue from the end of the last one, which
+        :meth:`run` left in ``states[0]``), then ``seconds`` more of the same open-loop gait, and the means over those
+        seconds (exact and smooth p_cost, base velocity, height). A longer, less noisy estimate than the taped window
+        of :meth:`run`, on the same physics. It overwrites the outputs and the start PID state of the last
+        :meth:`run`: call :meth:`gradients` first."""
+        import newton
+
+        steps = max(1, round(seconds / self.policy_dt))
+        for arr in (self.p_cost_legs, self.p_cost_wheels, self.p_cost_smooth, self.base_velocity, self.base_height):
+            arr.zero_()
+        if warm_start:
+            self._untaped(0, self.warmup, reset=True)
+        else:
+            a, s0 = self._scratch[0], self.states[0]
+            wp.copy(a.joint_q, s0.joint_q)
+            wp.copy(a.joint_qd, s0.joint_qd)
+            newton.eval_fk(self.model, a.joint_q, a.joint_qd, a)
+        low = self._untaped(self.warmup, steps, measure=True)
+        final = self._scratch[0].joint_q.numpy().reshape(self.num_envs, -1)
+        return self._result(low, final)
+
+    def _result(self, low: np.ndarray, final: np.ndarray) -> RolloutResult:
+        return RolloutResult(
+            p_cost=self.p_cost_legs.numpy().astype(np.float64) + self.p_cost_wheels.numpy(),
+            p_cost_legs=self.p_cost_legs.numpy().astype(np.float64),
+            p_cost_wheels=self.p_cost_wheels.numpy().astype(np.float64),
+            p_cost_smooth=self.p_cost_smooth.numpy().astype(np.float64),
+            base_velocity=self.base_velocity.numpy().astype(np.float64),
+            base_height=self.base_height.numpy().astype(np.float64),
+            fell=(low < FALL_HEIGHT) | ~np.isfinite(final).all(axis=1),
+        )
 
     def _anchored_contact_forces(self, state, c, anchored) -> None:
         cfg, m = self.cfg, self.model
@@ -321,15 +381,7 @@ class DiffRollout:
                 setattr(self.solver, name, arr)
         h = np.minimum(self.min_height, np.min(np.stack(heights), axis=0))
         final = self.states[-1].joint_q.numpy().reshape(n, -1)
-        return RolloutResult(
-            p_cost=self.p_cost_legs.numpy().astype(np.float64) + self.p_cost_wheels.numpy(),
-            p_cost_legs=self.p_cost_legs.numpy().astype(np.float64),
-            p_cost_wheels=self.p_cost_wheels.numpy().astype(np.float64),
-            p_cost_smooth=self.p_cost_smooth.numpy().astype(np.float64),
-            base_velocity=self.base_velocity.numpy().astype(np.float64),
-            base_height=self.base_height.numpy().astype(np.float64),
-            fell=(h < 0.12) | ~np.isfinite(final).all(axis=1),
-        )
+        return self._result(h, final)
 
     def gradients(self, p_cost_weight=None, velocity_weight=None, height_weight=None) -> dict:
         """Backward pass of the last recorded :meth:`run`: the gradient of
