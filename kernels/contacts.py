@@ -9,6 +9,37 @@ from __future__ import annotations
 import warp as wp
 
 
+@wp.func
+def ground_contact_shape(a: int, b: int, ground_shape: int) -> int:
+    """The robot's shape in a contact between shapes ``a`` and ``b`` if the other one is the ground, else -1."""
+    if a == ground_shape:
+        return b
+    if b == ground_shape:
+        return a
+    return -1
+
+
+@wp.func
+def record_ground_contact(
+    s: int,
+    force: float,
+    shape_world: wp.array(dtype=wp.int32),
+    shape_wheel_slot: wp.array(dtype=wp.int32),
+    shape_body_slot: wp.array(dtype=wp.int32),
+    wheel_force: wp.array2d(dtype=wp.float32),
+    body_collision: wp.array2d(dtype=wp.int32),
+):
+    """Add ``force`` [N] to the wheel slot of robot shape ``s`` (if it is a wheel) and flag its collision-body slot
+    (if it has one)."""
+    world = shape_world[s]
+    k = shape_wheel_slot[s]
+    if k >= 0:
+        wp.atomic_add(wheel_force, world, k, force)
+    c = shape_body_slot[s]
+    if c >= 0:
+        body_collision[world, c] = 1
+
+
 @wp.kernel
 def accumulate_newton_contacts(
     contact_count: wp.array(dtype=wp.int32),
@@ -30,23 +61,11 @@ def accumulate_newton_contacts(
     i = wp.tid()
     if i >= contact_count[0]:
         return
-    a = shape0[i]
-    b = shape1[i]
-    s = a
-    if a == ground_shape:
-        s = b
-    elif b != ground_shape:
-        return
+    s = ground_contact_shape(shape0[i], shape1[i], ground_shape)
     if s < 0:
         return
-    world = shape_world[s]
-    k = shape_wheel_slot[s]
-    if k >= 0:
-        f = wp.spatial_top(contact_f[i])
-        wp.atomic_add(wheel_force, world, k, wp.length(f))
-    c = shape_body_slot[s]
-    if c >= 0:
-        body_collision[world, c] = 1
+    f = wp.length(wp.spatial_top(contact_f[i]))
+    record_ground_contact(s, f, shape_world, shape_wheel_slot, shape_body_slot, wheel_force, body_collision)
 
 
 @wp.kernel
@@ -103,11 +122,7 @@ def accumulate_penalty_contacts(
         return
     a = shape0[i]
     b = shape1[i]
-    s = a
-    if a == ground_shape:
-        s = b
-    elif b != ground_shape:
-        return
+    s = ground_contact_shape(a, b, ground_shape)
     if s < 0:
         return
     n = -normal[i]
@@ -118,15 +133,9 @@ def accumulate_penalty_contacts(
     if b >= 0 and shape_body[b] >= 0:
         pb = wp.transform_point(body_q[shape_body[b]], pb) + margin1[i] * n
     depth = -wp.dot(n, pa - pb)
-    if depth <= 0.0:
-        return
-    world = shape_world[s]
-    k = shape_wheel_slot[s]
-    if k >= 0:
-        wp.atomic_add(wheel_force, world, k, ke * depth)
-    c = shape_body_slot[s]
-    if c >= 0:
-        body_collision[world, c] = 1
+    if depth > 0.0:
+        record_ground_contact(s, ke * depth, shape_world, shape_wheel_slot, shape_body_slot, wheel_force,
+                              body_collision)  # fmt: skip
 
 
 @wp.kernel

@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser, output_problem
+from wqwarp.cli import ArgumentParser
 
 QUANTITIES = ("height", "v_x", "w_z", "p_cost", "p_cost_legs", "p_cost_wheels")
 SETTLE_S = 1.0
@@ -101,10 +101,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--backends needs two or more of {', '.join(b for b in BACKENDS if b != 'auto')}")
     if not (0 < args.dt <= 0.02) or args.decimation < 1 or args.seconds <= SETTLE_S:
         ap.error(f"need 0 < --dt <= 0.02, --decimation >= 1 and --seconds > {SETTLE_S}")
-    for path in (args.json, args.plot):
-        problem = output_problem(path) if path else None
-        if problem:
-            ap.error(f"cannot write {path}: {problem}")
+    ap.check_outputs(args.json, args.plot)
     import warp as wp
 
     wp.config.quiet = True

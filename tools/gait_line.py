@@ -21,7 +21,7 @@ import sys
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser, output_problem
+from wqwarp.cli import ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -49,10 +49,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--alphas takes comma-separated numbers, got {args.alphas!r}")
     if not alphas or not (0 < args.dt <= 0.02) or args.decimation < 1 or args.seconds <= 0:
         ap.error("need --alphas, 0 < --dt <= 0.02, --decimation >= 1 and --seconds > 0")
-    if args.json:
-        problem = output_problem(args.json)
-        if problem:
-            ap.error(f"cannot write {args.json}: {problem}")
+    ap.check_outputs(args.json)
     import warp as wp
 
     wp.config.quiet = True

@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser, output_problem
+from wqwarp.cli import ArgumentParser
 
 PARAM_SCALE = np.array([0.2, 0.1, 1.0, 0.4, 0.05])
 """Typical size of each gait parameter (h_b [m], h_s [m], f [Hz], DF_swing [-], stance x [m]): gradients are
@@ -163,10 +163,7 @@ def main(argv: list[str] | None = None) -> int:
 
     if args.gait not in GAIT_NAMES:
         ap.error(f"unknown gait {args.gait!r}; choose one of {', '.join(GAIT_NAMES)}")
-    for path in (args.json, args.plot):
-        problem = output_problem(path) if path else None
-        if problem:
-            ap.error(f"cannot write {path}: {problem}")
+    ap.check_outputs(args.json, args.plot)
     import warp as wp
 
     wp.config.quiet = True

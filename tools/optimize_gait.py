@@ -22,7 +22,7 @@ from __future__ import annotations
 import sys
 import time
 
-from wqwarp.cli import ArgumentParser, output_problem
+from wqwarp.cli import ArgumentParser
 
 EVAL_SETTINGS = (("mujoco_cpu", 0.005, 4), ("mujoco_cpu", 0.001, 20))
 """MuJoCo settings (backend, dt, decimation) of the before/after evaluation; Featherstone at the tuning dt is added."""
@@ -88,10 +88,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("need --iterations >= 0, --windows >= 1, --lr > 0, --patience >= 1 and --eval-seconds > 0")
     if not (0 < args.dt <= 0.02) or args.horizon <= 0 or args.warmup < 0 or args.accept_seconds < 0:
         ap.error("need 0 < --dt <= 0.02, --horizon > 0, --warmup >= 0 and --accept-seconds >= 0")
-    if args.json:
-        problem = output_problem(args.json)
-        if problem:
-            ap.error(f"cannot write {args.json}: {problem}")
+    ap.check_outputs(args.json)
     import warp as wp
 
     wp.config.quiet = True

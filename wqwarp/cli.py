@@ -13,6 +13,13 @@ class ArgumentParser(argparse.ArgumentParser):
     def error(self, message: str):  # type: ignore[override]
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
+    def check_outputs(self, *paths: str | None) -> None:
+        """Usage error unless every given result-file path can be written (:func:`output_problem`); None is skipped.
+        Call it before any work, so that a long run never ends in a failed write."""
+        for path in paths:
+            if path and (problem := output_problem(path)):
+                self.error(f"cannot write {path}: {problem}")
+
 
 def directory_problem(path: str) -> str | None:
     """Why ``path`` cannot be used as an output directory (a file there, or its nearest existing ancestor not a

@@ -635,19 +635,18 @@ class Simulator:
 
         cfg = self.cfg
         self.solver, self._pipeline, self.contacts = diffsim.penalty_physics(self.model, cfg)
-        self._state_next = self.model.state()
         self._ground_shape, self._shape_world, self._wheel_slot, self._body_slot = shape_slots(self.model, self.layout)
 
     def _step_featherstone(self, actuate: bool) -> None:
-        st, nxt = self.state, self._state_next
+        st = self.state
         for _ in range(self.cfg.decimation):
             if actuate:
                 self._actuate()
             self._pipeline.collide(st, self.contacts)
             st.clear_forces()
-            self.solver.step(st, nxt, self.control, self.contacts, self.cfg.dt)
-            for name in ("joint_q", "joint_qd", "body_q", "body_qd"):  # keep the views on self.state valid
-                wp.copy(getattr(st, name), getattr(nxt, name))
+            # in place (Featherstone supports it; bit-identical to stepping into a second state and copying back),
+            # so the views on self.state stay valid
+            self.solver.step(st, st, self.control, self.contacts, self.cfg.dt)
         b, c = self.buf, self.contacts
         b.wheel_force.zero_()
         b.body_collision.zero_()

@@ -193,16 +193,16 @@ class DiffRollout:
     def _rows(self, state, name: str, width: int):
         return getattr(state, name).reshape((self.num_envs, width))
 
-    def _actuate(self, kernel, state, leg_t, wheel_t, i_in, e_in, i_out, e_out, torque, joint_f) -> None:
+    def _actuate(self, state, leg_t, wheel_t, i_in, e_in, i_out, e_out, torque, joint_f) -> None:
+        """``apply_actuation_taped``: PID state read from ``i_in``/``e_in``, written to ``i_out``/``e_out`` (the same
+        arrays for the untaped loops, which update it in place)."""
         cfg, lay = self.cfg, self.layout
-        common = [self._rows(state, "joint_q", lay.coords_per_world), self._rows(state, "joint_qd", lay.dofs_per_world),
-                  self.coord_index, self.dof_index, leg_t, wheel_t, cfg.leg_kp, cfg.leg_kd, cfg.wheel_kp, cfg.wheel_ki,
-                  cfg.wheel_kd, cfg.wheel_i_limit, self.torque_limit, self.strength, cfg.dt]  # fmt: skip
-        jf = joint_f.reshape((self.num_envs, lay.dofs_per_world))
-        if kernel is actuation.apply_actuation:
-            wp.launch(kernel, dim=self.num_envs, inputs=[*common, i_in, e_in], outputs=[torque, jf])
-        else:
-            wp.launch(kernel, dim=self.num_envs, inputs=[*common, i_in, e_in], outputs=[i_out, e_out, torque, jf])
+        wp.launch(actuation.apply_actuation_taped, dim=self.num_envs,
+                  inputs=[self._rows(state, "joint_q", lay.coords_per_world),
+                          self._rows(state, "joint_qd", lay.dofs_per_world), self.coord_index, self.dof_index, leg_t,
+                          wheel_t, cfg.leg_kp, cfg.leg_kd, cfg.wheel_kp, cfg.wheel_ki, cfg.wheel_kd, cfg.wheel_i_limit,
+                          self.torque_limit, self.strength, cfg.dt, i_in, e_in],
+                  outputs=[i_out, e_out, torque, joint_f.reshape((self.num_envs, lay.dofs_per_world))])  # fmt: skip
 
     def _targets(self, step: int, t: float, leg_t, wheel_t) -> None:
         n = self.num_envs
@@ -235,8 +235,8 @@ class DiffRollout:
         for p in range(first, first + steps):
             self._targets(0, p * self.policy_dt, self.leg_target[0], self.wheel_target[0])
             for _ in range(cfg.decimation):
-                self._actuate(actuation.apply_actuation, a, self.leg_target[0], self.wheel_target[0], self.integral[0],
-                              self.prev_error[0], None, None, self.torque[0], self._warm_f)  # fmt: skip
+                self._actuate(a, self.leg_target[0], self.wheel_target[0], self.integral[0], self.prev_error[0],
+                              self.integral[0], self.prev_error[0], self.torque[0], self._warm_f)  # fmt: skip
                 if measure:
                     wp.launch(power.accumulate_p_cost_taped, dim=n,
                               inputs=[self.torque[0], self._rows(a, "joint_qd", lay.dofs_per_world), self.dof_index,
@@ -327,7 +327,6 @@ class DiffRollout:
         tape = wp.Tape() if record else None
         self.tape = tape
         saved = {k: getattr(self.solver, k) for k in self.matrices[0]}
-        heights = []
 
         def taped(fn):
             if tape is None:
@@ -357,9 +356,9 @@ class DiffRollout:
                     self.control.joint_f = self.joint_f[i]
 
                     def substep(i=i, p=p, s=s, s1=s1):
-                        self._actuate(actuation.apply_actuation_taped, s, self.leg_target[p], self.wheel_target[p],
-                                      self.integral[i], self.prev_error[i], self.integral[i + 1],
-                                      self.prev_error[i + 1], self.torque[i], self.joint_f[i])  # fmt: skip
+                        self._actuate(s, self.leg_target[p], self.wheel_target[p], self.integral[i],
+                                      self.prev_error[i], self.integral[i + 1], self.prev_error[i + 1], self.torque[i],
+                                      self.joint_f[i])  # fmt: skip
                         wp.launch(power.accumulate_p_cost_taped, dim=n,
                                   inputs=[self.torque[i], self._rows(s, "joint_qd", lay.dofs_per_world),
                                           self.dof_index, weight, self.eps_tau, self.eps_qd],
@@ -375,11 +374,12 @@ class DiffRollout:
                                   outputs=[self.base_velocity, self.base_height])  # fmt: skip
 
                     taped(substep)
-                    heights.append(s1.joint_q.numpy().reshape(n, -1)[:, 2])
         finally:
             for name, arr in saved.items():
                 setattr(self.solver, name, arr)
-        h = np.minimum(self.min_height, np.min(np.stack(heights), axis=0))
+        # every substep's state is kept: read the trunk heights once, after the loop (no host copy per substep)
+        heights = np.stack([st.joint_q.numpy().reshape(n, -1)[:, 2] for st in self.states[1:]])
+        h = np.minimum(self.min_height, heights.min(axis=0))
         final = self.states[-1].joint_q.numpy().reshape(n, -1)
         return self._result(h, final)
 
