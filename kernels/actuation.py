@@ -179,7 +179,7 @@ def apply_actuation_taped(
 ):
     """One thread per robot: :func:`actuate_robot` with the wheel PID state read from one pair of arrays and
     written to another, so that no array is overwritten and ``wp.Tape`` can run the adjoint (differentiable
-    rollouts, ``wqwarp.sim.diffsim``)."""
+    rollouts, ``wqwarp.diff.rollout``)."""
     world = wp.tid()
     actuate_robot(world, joint_q, joint_qd, coord_index, dof_index, leg_q_target, wheel_qd_target, leg_kp, leg_kd,
                   wheel_kp, wheel_ki, wheel_kd, wheel_i_limit, torque_limit, motor_strength, dt, wheel_integral_in,
@@ -247,7 +247,7 @@ def launch_actuation(
         wheel_i_limit: bound of the wheel integral [rad].
         dt: physics substep [s].
         coord_index, dof_index: (16,) int32 column of each actuated joint (project order) in a world's
-            ``joint_q`` / ``joint_qd`` row (``wqwarp.robot.RobotLayout``).
+            ``joint_q`` / ``joint_qd`` row (``wqwarp.robot.asset.RobotLayout``).
         device: Warp device to launch on (default: the arrays' device).
         record_cmd: return the prepared launch instead of running it (replay it with ``.launch()``).
     """

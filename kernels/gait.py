@@ -2,9 +2,9 @@
 
 References:
     Paper, "Augmented Nominal Gait Design": Eq. (1) phase update, Eq. (2) swing height F(psi), Eq. (3) nominal
-    wheel velocity, Table I gait library (``wqwarp.gaits``). Where the paper is silent, the conventions of the
+    wheel velocity, Table I gait library (``wqwarp.control.gaits``). Where the paper is silent, the conventions of the
     authors' public trajectory generator (xu-yang16/wheeled-quadruped-sim2sim ``sim/policy_manager/PMTG.py``,
-    config ``sim/policy_manager/policy_config/my_legged_robot_config.py``), cited in ``wqwarp.constants``.
+    config ``sim/policy_manager/policy_config/my_legged_robot_config.py``), cited in ``wqwarp.robot.constants``.
 
 Per leg i (FR, FL, RR, RL) and policy step, with the gait clock c_i and the policy's phase residual dphi_i::
 
@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import warp as wp
 
-from wqwarp import constants
+from wqwarp.robot import constants
 
 from .kinematics import LEG_SIDE, foot_ik, leg_fk
 
@@ -346,8 +346,8 @@ def reset_nominal_gait(state: NominalGaitState, env_ids: wp.array, gait_id: wp.a
     """Reset the worlds in ``env_ids`` ((n,) int32) to gait ``gait_id[world]`` ((world_count,) int32).
 
     ``gaits`` holds ``phase_offsets`` (num_gaits, 4), ``df_swing`` (num_gaits,) and ``frequency`` (num_gaits,)
-    float32 arrays (``wqwarp.gaits.gait_library_arrays``). Phases start just after a touch-down with every leg in
-    stance; nominal wheel velocities start at 0.
+    float32 arrays (``wqwarp.control.gaits.gait_library_arrays``). Phases start just after a touch-down with every leg
+    in stance; nominal wheel velocities start at 0.
     """
     wp.launch(
         reset_gait_phases,
@@ -376,7 +376,7 @@ def step_nominal_gait(
 
     Args:
         state: buffers from :meth:`NominalGaitState.allocate`, updated in place.
-        gaits: gait library arrays (``wqwarp.gaits.GaitArrays``).
+        gaits: gait library arrays (``wqwarp.control.gaits.GaitArrays``).
         gait_id: (world_count,) int32 requested gait per world (applied as described in the module docstring).
         command: (world_count, 3) float32 (v_x [m/s], v_y [m/s], w_z [rad/s]) in the base frame.
         phase_residual: (world_count, 4) float32 policy phase residuals dphi [cycles].

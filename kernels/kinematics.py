@@ -16,7 +16,7 @@ residuals refer to it). ``leg_fk`` is the wheel centre's FK (Eq. (3)), ``foot_ik
 and residuals); ``leg_point_fk`` / ``leg_point_ik`` take any point (the launchers below and their tests).
 
 References:
-    Go1 geometry: ``wqwarp.constants`` (MuJoCo Menagerie ``go1.xml`` and the authors' wheeled-Go1 model).
+    Go1 geometry: ``wqwarp.robot.constants`` (MuJoCo Menagerie ``go1.xml`` and the authors' wheeled-Go1 model).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import math
 import numpy as np
 import warp as wp
 
-from wqwarp import constants
+from wqwarp.robot import constants
 
 # --- geometry as Warp constants, generated from constants.py ----------------------------------------------------
 THIGH_OFFSET_Y = wp.constant(float(constants.THIGH_OFFSET_Y))

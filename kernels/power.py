@@ -35,7 +35,7 @@ def smooth_abs(x: float, eps: float) -> float:
 
     Equals 0 at x = 0 and |x| - eps + O(eps^2 / |x|) far from 0, so it underestimates |x| by at most eps; its slope
     is x / sqrt(x^2 + eps^2), which goes through 0 at x = 0 with slope 1 / eps instead of jumping from -1 to +1.
-    Used only where gradients are taken (``wqwarp.sim.diffsim``); every reported power uses the exact |x|.
+    Used only where gradients are taken (``wqwarp.diff.rollout``); every reported power uses the exact |x|.
     """
     return wp.sqrt(x * x + eps * eps) - eps
 

@@ -1,6 +1,6 @@
 """Reward terms of the paper's Table II, one ``@wp.func`` each, and the kernel that weighs and sums them.
 
-Term columns follow ``wqwarp.config.REWARD_TERMS``:
+Term columns follow ``wqwarp.rl.config.REWARD_TERMS``:
     0 track_vx  1 track_vy  2 track_wz  3 residual  4 orientation  5 lin_vel_z  6 ang_vel_xy  7 joint_acc
     8 torques   9 action_smoothness  10 collision  11 energy
 The step reward is sum_k w_k * r_k * dt (legged_gym convention); a term whose weight is 0 is not evaluated.

@@ -25,14 +25,14 @@ def device(request) -> str:
 
 
 def _save_untrained_checkpoint(path: str, cfg) -> str:
-    """Write the checkpoint an untrained run of ``cfg`` (a ``wqwarp.config.EnvConfig``) would save, as
+    """Write the checkpoint an untrained run of ``cfg`` (a ``wqwarp.rl.config.EnvConfig``) would save, as
     ``train/ppo_newton.py`` does (configuration, policy, estimator, predictor, layout); returns ``path``."""
     import contextlib
     import io
 
-    from wqwarp.config import TrainConfig
-    from wqwarp.env import WheeledGo1Env
-    from wqwarp.runner import WqRunner
+    from wqwarp.rl.config import TrainConfig
+    from wqwarp.rl.env import WheeledGo1Env
+    from wqwarp.rl.runner import WqRunner
 
     with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the networks
         runner = WqRunner(WheeledGo1Env(cfg), TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu")

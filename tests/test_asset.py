@@ -8,8 +8,8 @@ import os
 import numpy as np
 import pytest
 
-from wqwarp import constants as C
-from wqwarp import robot
+from wqwarp.robot import asset as robot
+from wqwarp.robot import constants as C
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

@@ -36,7 +36,7 @@ def _exit_code(main, argv) -> tuple[int, str]:
 
 @pytest.fixture(scope="module")
 def bad_files(tmp_path_factory, save_checkpoint):
-    from wqwarp.config import make_preset
+    from wqwarp.rl.config import make_preset
 
     d = tmp_path_factory.mktemp("bad")
     cfg = make_preset("ours")

@@ -21,9 +21,9 @@ CASES = (("ours", 5), ("baseline", 7))
 
 
 def first_iteration(preset: str, seed: int) -> dict[str, np.ndarray]:
-    from wqwarp.config import TrainConfig, make_preset
-    from wqwarp.env import WheeledGo1Env
-    from wqwarp.runner import WqRunner
+    from wqwarp.rl.config import TrainConfig, make_preset
+    from wqwarp.rl.env import WheeledGo1Env
+    from wqwarp.rl.runner import WqRunner
 
     cfg = make_preset(preset)
     cfg.sim.num_envs = 8

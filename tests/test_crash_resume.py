@@ -14,9 +14,9 @@ import time
 
 import torch
 
-from wqwarp.config import TrainConfig, make_preset
-from wqwarp.env import WheeledGo1Env
-from wqwarp.runner import WqRunner
+from wqwarp.rl.config import TrainConfig, make_preset
+from wqwarp.rl.env import WheeledGo1Env
+from wqwarp.rl.runner import WqRunner
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TRAIN = os.path.join(ROOT, "train", "ppo_newton.py")

@@ -9,11 +9,11 @@ import io
 
 import torch
 
-from wqwarp.config import TrainConfig, make_preset
-from wqwarp.env import WheeledGo1Env
-from wqwarp.evaluation import run_task
-from wqwarp.play import make_policy_runner
-from wqwarp.runner import WqRunner
+from wqwarp.eval.loading import make_policy_runner
+from wqwarp.eval.protocols import run_task
+from wqwarp.rl.config import TrainConfig, make_preset
+from wqwarp.rl.env import WheeledGo1Env
+from wqwarp.rl.runner import WqRunner
 
 
 def _first_iteration(seed: int) -> dict:

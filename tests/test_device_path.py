@@ -11,9 +11,9 @@ import pytest
 import torch
 import warp as wp
 
-from wqwarp.config import TrainConfig, make_preset
-from wqwarp.env import WheeledGo1Env
-from wqwarp.runner import WqRunner
+from wqwarp.rl.config import TrainConfig, make_preset
+from wqwarp.rl.env import WheeledGo1Env
+from wqwarp.rl.runner import WqRunner
 
 N = 4
 

@@ -7,8 +7,8 @@ import pytest
 import torch
 import warp as wp
 
-from wqwarp.config import PRESETS, REWARD_TERMS, RewardConfig, make_preset
-from wqwarp.env import PRIVILEGED_DIM, WheeledGo1Env, decode_observation, observation_layout
+from wqwarp.rl.config import PRESETS, REWARD_TERMS, RewardConfig, make_preset
+from wqwarp.rl.env import PRIVILEGED_DIM, WheeledGo1Env, decode_observation, observation_layout
 
 N = 4
 
@@ -148,7 +148,7 @@ def test_unknown_preset_is_a_clear_error():
 def test_every_config_round_trips_and_a_foreign_one_is_a_clear_error(preset):
     import json
 
-    from wqwarp.config import env_config_from_dict, to_dict
+    from wqwarp.rl.config import env_config_from_dict, to_dict
 
     cfg = make_preset(preset)
     cfg.sim.dt, cfg.sim.decimation, cfg.predictor.hidden_dims = 0.001, 20, (32, 16)
@@ -165,7 +165,7 @@ def test_every_config_round_trips_and_a_foreign_one_is_a_clear_error(preset):
 
 
 def test_settings_added_later_are_filled_with_the_old_behaviour_and_reported():
-    from wqwarp.config import env_config_from_dict, to_dict
+    from wqwarp.rl.config import env_config_from_dict, to_dict
 
     d = to_dict(make_preset("no_predictor"))
     del d["action"]["phase_residual_mode"], d["predictor"]  # a checkpoint from before both settings
@@ -179,7 +179,7 @@ def test_settings_added_later_are_filled_with_the_old_behaviour_and_reported():
 
 
 def test_evaluation_builds_the_env_from_the_checkpoints_own_configuration(tmp_path, save_checkpoint):
-    from wqwarp.play import make_policy_runner
+    from wqwarp.eval.loading import make_policy_runner
 
     cfg = make_preset("no_predictor")
     cfg.sim.num_envs, cfg.sim.dt, cfg.sim.decimation = 2, 0.001, 20
@@ -193,7 +193,7 @@ def test_evaluation_builds_the_env_from_the_checkpoints_own_configuration(tmp_pa
     assert cfg.sim.num_envs == 2 and cfg.domain_rand.enabled  # the trained config is not touched
     pr = make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=2, dt=0.005)
     assert (pr.env.cfg.sim.dt, pr.env.cfg.sim.decimation) == (0.005, 4)  # a named override keeps 50 Hz
-    from wqwarp.evaluation import PUSH_TASKS, run_task
+    from wqwarp.eval.protocols import PUSH_TASKS, run_task
 
     res = run_task(pr, "vy", seconds=2.2, settle=0.2)
     assert res.command_range == [-0.7, 0.7] and not res.outside_training_range

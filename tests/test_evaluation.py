@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import torch
 
-from wqwarp.config import make_preset
-from wqwarp.evaluation import POWER_KEYS, TaskMetrics
+from wqwarp.eval.protocols import POWER_KEYS, TaskMetrics
+from wqwarp.rl.config import make_preset
 
 
 def _power(**watts) -> dict:
@@ -50,9 +50,9 @@ def test_task_metrics_on_a_scripted_trajectory():
 
 
 def test_sim_to_sim_physics_are_named_overrides_of_the_trained_configuration():
-    from wqwarp.constants import AUTHORS_GROUND_FRICTION, AUTHORS_JOINT_MODEL
-    from wqwarp.env import WheeledGo1Env
-    from wqwarp.play import evaluation_config
+    from wqwarp.eval.loading import evaluation_config
+    from wqwarp.rl.env import WheeledGo1Env
+    from wqwarp.robot.constants import AUTHORS_GROUND_FRICTION, AUTHORS_JOINT_MODEL
 
     trained = make_preset("ours")
     trained.sim.num_envs = 8
@@ -85,8 +85,8 @@ def test_sim_to_sim_physics_are_named_overrides_of_the_trained_configuration():
 def test_run_task_pushes_on_schedule_and_holds_its_commands(tmp_path, save_checkpoint):
     """Pushes every ``push_interval`` (observed through the env's recorded impulse), velocity impulses no larger than
     the maximum, and the task's commands unchanged throughout."""
-    from wqwarp.evaluation import run_task, spread_commands
-    from wqwarp.play import make_policy_runner
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.protocols import run_task, spread_commands
 
     cfg = make_preset("no_predictor")
     cfg.sim.num_envs = 1
@@ -112,8 +112,8 @@ def test_run_task_pushes_on_schedule_and_holds_its_commands(tmp_path, save_check
 def test_a_loaded_checkpoint_starts_the_same_whatever_torch_drew_before(tmp_path, save_checkpoint):
     """The env observes and selects gaits with the networks it is built with; after a checkpoint is loaded the first
     observation and the gait each robot is reset into must come from the loaded ones, not from torch's global RNG."""
-    from wqwarp.evaluation import start_rollout
-    from wqwarp.play import make_policy_runner
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.protocols import start_rollout
 
     cfg = make_preset("ours")
     cfg.sim.num_envs = 2

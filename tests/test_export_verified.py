@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import torch
 
-from wqwarp.config import TrainConfig, make_preset
-from wqwarp.env import WheeledGo1Env
-from wqwarp.runner import WqRunner, export_onboard_policy
+from wqwarp.rl.config import TrainConfig, make_preset
+from wqwarp.rl.env import WheeledGo1Env
+from wqwarp.rl.runner import WqRunner, export_onboard_policy
 
 ort = pytest.importorskip("onnxruntime")
 

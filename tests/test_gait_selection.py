@@ -8,8 +8,8 @@ import json
 import pytest
 import torch
 
-from wqwarp.config import PredictorConfig, make_preset
-from wqwarp.gait_selection import (
+from wqwarp.rl.config import PredictorConfig, make_preset
+from wqwarp.rl.gait_selection import (
     COMMAND_TYPES,
     PowerPredictor,
     PredictiveGaitSelector,
@@ -166,7 +166,7 @@ def test_predictor_fits_a_synthetic_power_function_of_the_observation():
 
 # --- the env and the runner ------------------------------------------------------------------------------------------
 def _env(preset: str, n: int = 4):
-    from wqwarp.env import WheeledGo1Env
+    from wqwarp.rl.env import WheeledGo1Env
 
     cfg = make_preset(preset)
     cfg.sim.num_envs = n
@@ -201,8 +201,8 @@ def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(pr
     import contextlib
     import io
 
-    from wqwarp.config import TrainConfig
-    from wqwarp.runner import WqRunner, export_onboard_policy
+    from wqwarp.rl.config import TrainConfig
+    from wqwarp.rl.runner import WqRunner, export_onboard_policy
 
     env = _env(preset, 8)
     assert env.cfg.gait.selection == "predictive"
@@ -253,8 +253,8 @@ def test_a_fixed_gait_checkpoint_cannot_drive_the_predictive_selection(tmp_path)
     import contextlib
     import io
 
-    from wqwarp.config import TrainConfig
-    from wqwarp.runner import WqRunner
+    from wqwarp.rl.config import TrainConfig
+    from wqwarp.rl.runner import WqRunner
 
     env = _env("no_predictor")
     with contextlib.redirect_stdout(io.StringIO()):
@@ -271,10 +271,10 @@ def test_estimator_and_predictor_do_not_change_during_evaluation_playback_or_exp
     import contextlib
     import io
 
-    from wqwarp.config import TrainConfig
-    from wqwarp.evaluation import run_task
-    from wqwarp.play import make_policy_runner
-    from wqwarp.runner import WqRunner, export_onboard_policy
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.protocols import run_task
+    from wqwarp.rl.config import TrainConfig
+    from wqwarp.rl.runner import WqRunner, export_onboard_policy
 
     env = _env("ours", 8)
     with contextlib.redirect_stdout(io.StringIO()):
@@ -305,7 +305,7 @@ def test_estimator_and_predictor_do_not_change_during_evaluation_playback_or_exp
 def test_selection_switches_only_when_no_leg_of_the_running_gait_swings():
     import warp as wp
 
-    from wqwarp.gaits import GAIT_LIBRARY
+    from wqwarp.control.gaits import GAIT_LIBRARY
 
     env = _env("ours", 8)
     env.collect_training_data = True
@@ -327,7 +327,7 @@ def test_selection_switches_only_when_no_leg_of_the_running_gait_swings():
 def _sync_worker(rank: int, world: int, port: int, out_dir: str) -> None:
     import torch.distributed as dist
 
-    from wqwarp.runner import _sync_module
+    from wqwarp.rl.runner import _sync_module
 
     dist.init_process_group("gloo", init_method=f"tcp://127.0.0.1:{port}", rank=rank, world_size=world)
     torch.manual_seed(rank)  # different initial weights per rank

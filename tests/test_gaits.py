@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp.gaits import GAIT_LIBRARY, GAIT_NAMES, Gait, gait_index, gait_library_arrays
+from wqwarp.control.gaits import GAIT_LIBRARY, GAIT_NAMES, Gait, gait_index, gait_library_arrays
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 

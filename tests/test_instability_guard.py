@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 import torch
 
-from wqwarp.config import make_preset
-from wqwarp.env import WheeledGo1Env
-from wqwarp.sim.backend import SimConfig, Simulator
+from wqwarp.rl.config import make_preset
+from wqwarp.rl.env import WheeledGo1Env
+from wqwarp.sim.config import SimConfig
+from wqwarp.sim.simulator import Simulator
 
 N = 4
 
@@ -39,7 +40,7 @@ def test_the_simulator_flags_exactly_the_diverged_robot(backend, value, tmp_path
     sim.reset([2])
     assert not sim.unstable.numpy().any()
     if backend == "mujoco_cpu" and value != value:  # MuJoCo warned (NaN): to the logger, not to MUJOCO_LOG.TXT
-        from wqwarp.sim.backend import MUJOCO_WARNINGS
+        from wqwarp.sim.simulator import MUJOCO_WARNINGS
 
         assert MUJOCO_WARNINGS and "unstable" in MUJOCO_WARNINGS[-1]
         assert not os.path.exists("MUJOCO_LOG.TXT")

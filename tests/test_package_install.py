@@ -28,7 +28,7 @@ def test_non_editable_install_trains_from_another_directory(tmp_path):
     assert r.returncode == 0, r.stderr[-2000:]
     work = tmp_path / "elsewhere"
     work.mkdir()
-    probe = ("import wqwarp, wqwarp.kernels, wqwarp.constants as C, os; "
+    probe = ("import wqwarp, wqwarp.kernels, wqwarp.robot.constants as C, os; "
              "print(wqwarp.__file__); print(C.WHEELED_GO1_USD); print(os.path.isfile(C.WHEELED_GO1_USD))")  # fmt: skip
     out = subprocess.run([py, "-c", probe], capture_output=True, text=True, cwd=work, check=True).stdout.split()
     assert out[0].startswith(new_site) and out[1].startswith(new_site) and out[2] == "True", out

@@ -21,7 +21,7 @@ def _run(*args, env=None):
 @pytest.fixture(scope="module")
 def checkpoint(tmp_path_factory, save_checkpoint) -> str:
     """An untrained 'ours' checkpoint (configuration, policy, estimator, predictor), as train/ppo_newton.py saves."""
-    from wqwarp.config import make_preset
+    from wqwarp.rl.config import make_preset
 
     cfg = make_preset("ours")
     cfg.sim.num_envs = 2

@@ -19,8 +19,8 @@ def test_short_training_run_tracks_forward_speed(tmp_path):
                         "--max-iterations", "300", "--log-dir", str(log), "--no-export"],
                        capture_output=True, text=True, cwd=ROOT, timeout=3600)  # fmt: skip
     assert r.returncode == 0, r.stderr[-2000:]
-    from wqwarp.evaluation import run_task
-    from wqwarp.play import make_policy_runner
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.protocols import run_task
 
     runner = make_policy_runner(str(log / "model_299.pt"), "no_predictor", num_envs=32)
     res = run_task(runner, "vx", seconds=10.0)

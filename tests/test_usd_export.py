@@ -1,4 +1,4 @@
-"""tools/export_usd.py and wqwarp.usd_export: the stage's prims, time samples, per-frame attributes and metadata;
+"""tools/export_usd.py and wqwarp.viz.usd: the stage's prims, time samples, per-frame attributes and metadata;
 bad input exits 2 and leaves no file behind."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ pxr = pytest.importorskip("pxr")
 from pxr import Usd, UsdGeom  # noqa: E402
 
 import wqwarp  # noqa: E402
-from wqwarp.usd_export import export_atomic, frame_steps  # noqa: E402
+from wqwarp.viz.usd import export_atomic, frame_steps  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TOOL = os.path.join(ROOT, "tools", "export_usd.py")
@@ -182,7 +182,7 @@ def test_bad_input_exits_2_without_a_file(tmp_path):
 @pytest.fixture(scope="module")
 def checkpoint(tmp_path_factory, save_checkpoint) -> str:
     """An untrained 'ours' checkpoint (configuration, policy, estimator, predictor), as train/ppo_newton.py saves."""
-    from wqwarp.config import make_preset
+    from wqwarp.rl.config import make_preset
 
     cfg = make_preset("ours")
     cfg.sim.num_envs = 1

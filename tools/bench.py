@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser, output_problem, parse_counts
+from wqwarp.cli.args import ArgumentParser, output_problem, parse_counts
 
 
 def _time(fn, seconds: float) -> tuple[float, int]:
@@ -44,7 +44,8 @@ def bench_size(n: int, device: str, backend: str, seconds: float, cuda_graph: bo
     import mujoco
     from mujoco import rollout
 
-    from wqwarp.sim.backend import SimConfig, Simulator
+    from wqwarp.sim.config import SimConfig
+    from wqwarp.sim.simulator import Simulator
 
     t0 = time.perf_counter()
     sim = Simulator(SimConfig(num_envs=n, device=device, backend=backend, cuda_graph=cuda_graph))

@@ -25,7 +25,7 @@ For each robot count N (all in robot-policy-steps per second, one policy step = 
 
 ``--busy K`` runs K processes that each spin one core for the whole measurement (a laptop is never idle).
 Threads: ``--threads N`` sets torch's intra-op threads and the physics threads (``mujoco.rollout``) together, as
-``train/ppo_newton.py --threads`` does; without it the training defaults are used (``wqwarp.threads``).
+``train/ppo_newton.py --threads`` does; without it the training defaults are used (``wqwarp.utils.threads``).
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ import os
 import sys
 import time
 
-from wqwarp.cli import ArgumentParser, output_problem, parse_counts
+from wqwarp.cli.args import ArgumentParser, output_problem, parse_counts
 
 STAGES = ("physics", "sim_kernels", "env_kernels", "env_resets", "estimator_inference", "gait_selection",
           "env_torch", "policy_inference", "storage", "returns", "ppo_update", "estimator_fit", "predictor_fit",
@@ -148,9 +148,9 @@ def bench(n: int, args, threads: dict) -> dict:
     import torch
     import warp as wp
 
-    from wqwarp.config import TrainConfig, make_preset
-    from wqwarp.env import WheeledGo1Env
-    from wqwarp.runner import WqRunner
+    from wqwarp.rl.config import TrainConfig, make_preset
+    from wqwarp.rl.env import WheeledGo1Env
+    from wqwarp.rl.runner import WqRunner
 
     cfg = make_preset(args.preset)
     cfg.sim.num_envs = n
@@ -239,7 +239,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seconds", type=float, default=3.0,
                     help="minimum wall time of the simulator and collection measurements (default 3)")  # fmt: skip
     ap.add_argument("--threads", type=int, default=None,
-                    help="torch and physics threads together (default: the training defaults, wqwarp.threads)")
+                    help="torch and physics threads together (default: the training defaults, wqwarp.utils.threads)")
     ap.add_argument("--torch-threads", type=int, default=None, help="torch intra-op threads (overrides --threads)")
     ap.add_argument("--physics-threads", type=int, default=None,
                     help="mujoco.rollout threads (overrides --threads)")  # fmt: skip
@@ -265,15 +265,15 @@ def main(argv: list[str] | None = None) -> int:
     if args.json and (problem := output_problem(args.json)):
         print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
         return 2
-    from wqwarp.config import PRESETS
+    from wqwarp.rl.config import PRESETS
 
     if args.preset not in PRESETS:
         print(f"error: unknown --preset {args.preset!r}; choose one of {', '.join(sorted(PRESETS))}", file=sys.stderr)
         return 2
     import warp as wp
 
-    from wqwarp import provenance
-    from wqwarp.threads import configure_threads
+    from wqwarp.utils import provenance
+    from wqwarp.utils.threads import configure_threads
 
     wp.config.quiet = True
     wp.init()

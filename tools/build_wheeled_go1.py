@@ -27,8 +27,8 @@ import tempfile
 
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
 
-from wqwarp import constants as C  # noqa: E402
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
+from wqwarp.robot import constants as C  # noqa: E402
 
 ROOT = "/wheeled_go1"
 TRUNK_SPAWN_Z = 0.5

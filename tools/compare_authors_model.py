@@ -9,8 +9,8 @@ Usage::
 (github.com/xu-yang16/wheeled-quadruped-sim2sim); it is not shipped here. Its mesh geoms are visual only
 (contype 0, explicit inertials) and are dropped on load, so the STL files are not needed.
 
-Both robots run the same loop at the same physics step: this project's nominal gait (``wqwarp.nominal``) gives leg
-joint targets and nominal wheel speeds (every wheel taken as touching the ground); legs track them with PD (Kp 40,
+Both robots run the same loop at the same physics step: this project's nominal gait (``wqwarp.control.nominal``) gives
+leg joint targets and nominal wheel speeds (every wheel taken as touching the ground); legs track them with PD (Kp 40,
 Kd 1, the harness's gains), wheels with this project's wheel PID (``SimConfig`` gains), torques clipped to the same
 limits. The authors' model keeps everything of its own: masses (14.26 kg), joint damping 0.01, armature 0.01, friction
 loss 0.2 N m, ground friction 0.6, box collision shapes; their wheel axes point -y on the right legs, which is
@@ -28,7 +28,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser, output_problem
+from wqwarp.cli.args import ArgumentParser, output_problem
 
 SCENARIOS = {"standing": ("driving", (0.0, 0.0, 0.0)), "drive_0.5": ("driving", (0.5, 0.0, 0.0)),
              "drive_1.0": ("driving", (1.0, 0.0, 0.0)), "trot_0": ("trotting", (0.0, 0.0, 0.0)),
@@ -58,12 +58,12 @@ def load_authors_model(path: str, dt: float):
 
 
 class AuthorsRobot:
-    """The authors' model driven like ``wqwarp.sim.backend.Simulator`` (explicit PD / PID torques every substep)."""
+    """The authors' model driven like ``wqwarp.sim.simulator.Simulator`` (explicit PD / PID torques every substep)."""
 
     def __init__(self, model, sim_cfg):
         import mujoco
 
-        from wqwarp import constants as C
+        from wqwarp.robot import constants as C
 
         self.m, self.cfg, self.mj = model, sim_cfg, mujoco
         self.d = mujoco.MjData(model)
@@ -119,9 +119,10 @@ def run(scenario: str, mjcf: str, dt: float, decimation: int, warmup: float, sec
     import torch
     import warp as wp
 
-    from wqwarp.env import quat_rotate_inv
-    from wqwarp.nominal import NominalGait
-    from wqwarp.sim.backend import SimConfig, Simulator
+    from wqwarp.control.nominal import NominalGait
+    from wqwarp.rl.env import quat_rotate_inv
+    from wqwarp.sim.config import SimConfig
+    from wqwarp.sim.simulator import Simulator
 
     wp.config.quiet = True
     gait, cmd = SCENARIOS[scenario]
@@ -193,7 +194,7 @@ def main(argv=None) -> int:
     if args.json:
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(args.json)), suffix=".json.tmp")
         with os.fdopen(fd, "w") as f:
-            from wqwarp.provenance import git_state
+            from wqwarp.utils.provenance import git_state
 
             json.dump({"command": " ".join(sys.argv), "git": git_state(), "dt": args.dt,
                        "decimation": args.decimation, "results": results}, f, indent=1)  # fmt: skip

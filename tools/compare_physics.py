@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
 
 QUANTITIES = ("height", "v_x", "w_z", "p_cost", "p_cost_legs", "p_cost_wheels")
 SETTLE_S = 1.0
@@ -95,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
     if bad or not scenarios:
         ap.error(f"unknown scenario {', '.join(bad) or '(none)'}; choose from {', '.join(gaits)}")
     backends = [b.strip() for b in args.backends.split(",") if b.strip()]
-    from wqwarp.sim.backend import BACKENDS
+    from wqwarp.sim.config import BACKENDS
 
     if len(backends) < 2 or any(b not in BACKENDS or b == "auto" for b in backends):
         ap.error(f"--backends needs two or more of {', '.join(b for b in BACKENDS if b != 'auto')}")
@@ -124,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(f"| {name} | {q} | " + " | ".join(f"{e[f'mean_{b}']:.3g}" for b in backends) + f" | {rms} |")
     print("\n".join(rows))
     if args.json:
-        from wqwarp.provenance import write_result_json
+        from wqwarp.utils.provenance import write_result_json
 
         write_result_json(args.json, report)
     if args.plot:

@@ -8,8 +8,8 @@ Usage::
 
 What runs: for every scenario and every physics setting ``DTxDECIMATION`` (physics substep dt [s] x substeps per
 policy step; both defaults give a 50 Hz policy rate), ``--num-envs`` robots start at the default pose and follow
-the nominal gait open loop, with no policy: once per policy step ``wqwarp.nominal.NominalGait`` turns the command
-(v_x, v_y, w_z in the base frame) into leg joint targets (leg PD) and wheel speed targets (wheel PID), as in
+the nominal gait open loop, with no policy: once per policy step ``wqwarp.control.nominal.NominalGait`` turns the
+command (v_x, v_y, w_z in the base frame) into leg joint targets (leg PD) and wheel speed targets (wheel PID), as in
 ``tests/sim/test_nominal_open_loop.py``. ``air_wheels`` instead holds the legs at the default joint pose and all four
 wheels at a constant 5 rad/s with the robot in free fall (no ground load): it starts at rest at a height
 max(50 m, g T^2 / 2 + 10 m), T = warmup + seconds, so it never reaches the ground inside the run.
@@ -48,7 +48,7 @@ import numpy as np
 import torch
 import warp as wp
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
 
 wp.config.quiet = True
 
@@ -109,11 +109,12 @@ def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: 
     """Run one scenario at one physics setting and return its window means (see the module docstring). With
     ``trace`` (a list), append per policy step, warm-up included, the robot means of time [s], trunk height [m],
     base v_x [m/s], yaw rate [rad/s] and p_cost (legs, wheels) [W] as a dict."""
-    from wqwarp import constants as C
-    from wqwarp import robot
-    from wqwarp.env import quat_rotate_inv
-    from wqwarp.nominal import NominalGait
-    from wqwarp.sim.backend import SimConfig, Simulator
+    from wqwarp.control.nominal import NominalGait
+    from wqwarp.rl.env import quat_rotate_inv
+    from wqwarp.robot import asset as robot
+    from wqwarp.robot import constants as C
+    from wqwarp.sim.config import SimConfig
+    from wqwarp.sim.simulator import Simulator
 
     gait, command = SCENARIOS[name]
     n = num_envs
@@ -339,8 +340,8 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    from wqwarp.provenance import git_state, write_result_json
-    from wqwarp.sim.backend import SimConfig
+    from wqwarp.sim.config import SimConfig
+    from wqwarp.utils.provenance import git_state, write_result_json
 
     sim_config = {k: v for k, v in dataclasses.asdict(SimConfig(backend=args.backend)).items()
                   if k not in ("num_envs", "dt", "decimation")}  # fmt: skip

@@ -35,9 +35,9 @@ import time
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser
-from wqwarp.gaits import GAIT_NAMES
-from wqwarp.usd_export import USD_EXTENSIONS, RolloutRecorder, check_output_path
+from wqwarp.cli.args import ArgumentParser
+from wqwarp.control.gaits import GAIT_NAMES
+from wqwarp.viz.usd import USD_EXTENSIONS, RolloutRecorder, check_output_path
 
 
 class UsageError(Exception):
@@ -132,7 +132,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--preset",
         default=None,
         metavar="NAME",
-        help="config preset the checkpoint was trained with (a wqwarp.config preset, e.g. ours); only with "
+        help="config preset the checkpoint was trained with (a wqwarp.rl.config preset, e.g. ours); only with "
         "--checkpoint",
     )
     add(
@@ -210,8 +210,9 @@ def run_nominal(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict,
     time of the rollout loop [s]."""
     import warp as wp
 
-    from wqwarp.nominal import NominalGait
-    from wqwarp.sim.backend import SimConfig, Simulator
+    from wqwarp.control.nominal import NominalGait
+    from wqwarp.sim.config import SimConfig
+    from wqwarp.sim.simulator import Simulator
 
     n, device = args.num_envs, args.device
     sim = Simulator(SimConfig(num_envs=n, device=device))
@@ -243,13 +244,13 @@ def run_nominal(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict,
 
 
 def run_policy(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict, float]:
-    """A trained policy (``wqwarp.play.make_policy_runner``: the env as the checkpoint's configuration says, no
+    """A trained policy (``wqwarp.eval.loading.make_policy_runner``: the env as the checkpoint's configuration says, no
     randomisation) for ``args.seconds`` with the scheduled commands held; returns the filled recorder, metadata and
     the rollout wall time [s]. Recorded after every step from ``env.sim`` and ``env.nominal``."""
     import torch
 
-    from wqwarp.evaluation import start_rollout
-    from wqwarp.play import make_policy_runner
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.protocols import start_rollout
 
     try:
         runner = make_policy_runner(args.checkpoint, args.preset, args.num_envs, args.device)

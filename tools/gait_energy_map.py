@@ -25,7 +25,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
 
 RANGES = {"vx": (-1.0, 1.0), "vy": (-0.7, 0.7), "wz": (-0.7, 0.7)}
 TRACKING_LIMIT = 0.05
@@ -70,11 +70,11 @@ def main(argv=None) -> int:
     import warp as wp
 
     wp.config.quiet = True
-    from wqwarp.config import to_dict
-    from wqwarp.evaluation import start_rollout
-    from wqwarp.gaits import GAIT_NAMES
-    from wqwarp.play import make_policy_runner
-    from wqwarp.provenance import write_result_json
+    from wqwarp.control.gaits import GAIT_NAMES
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.protocols import start_rollout
+    from wqwarp.rl.config import to_dict
+    from wqwarp.utils.provenance import write_result_json
 
     t0 = time.time()
     cells = grid_commands(args.grid)
@@ -210,7 +210,7 @@ def draw(result: dict, path: str) -> None:
     fig.suptitle(f"gait energy map: {result['preset']} (iteration {result['iteration']}), "
                  f"x = the trunk touched the ground", fontsize=10)  # fmt: skip
     fig.tight_layout()
-    from wqwarp.provenance import save_figure
+    from wqwarp.utils.provenance import save_figure
 
     save_figure(fig, path, dpi=90)
 

@@ -6,7 +6,7 @@ Usage::
                               [--backend mujoco_cpu] [--dt 0.001] [--decimation 20] [--seconds 3] [--json PATH]
 
 Reads a ``tools/optimize_gait.py`` result and evaluates theta(alpha) = start + alpha (tuned - start) (clipped to the
-gait's bounds) with ``wqwarp.gait_tuning.evaluate``: the closed-loop nominal gait, exact p_cost, 2 robots, 1 s warm-up,
+gait's bounds) with ``wqwarp.diff.tuning.evaluate``: the closed-loop nominal gait, exact p_cost, 2 robots, 1 s warm-up,
 then ``--seconds``. A monotone fall of the energy per metre along the line shows that the tuned point lies in a real
 basin of the physics the tuning did not use, not in a pocket of the differentiable solver.
 
@@ -21,7 +21,7 @@ import sys
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     import warp as wp
 
     wp.config.quiet = True
-    from wqwarp.gait_tuning import evaluate
+    from wqwarp.diff.tuning import evaluate
 
     points = []
     rows = ["| alpha | h_b | h_s | f | DF_swing | stance x | energy / m [J/m] | p_cost [W] | v_x [m/s] | height [m] |",
@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
         print(rows[-1], file=sys.stderr, flush=True)
     print("\n".join(rows))
     if args.json:
-        from wqwarp.provenance import write_result_json
+        from wqwarp.utils.provenance import write_result_json
 
         write_result_json(args.json, {"tuning": args.tuning, "gait": gait, "vx": vx, "start": start.tolist(),
                                       "tuned": tuned.tolist(), "points": points})  # fmt: skip

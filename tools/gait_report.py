@@ -6,7 +6,7 @@ Usage::
     python tools/gait_report.py RUN_DIR [--last 100] [--json docs/gait_report.json]
 
 Each value is the mean over the last ``--last`` logged iterations (the scalars are written once per iteration by
-``wqwarp.runner.WqRunner``); a fixed-gait run reports its usage and switch counts too.
+``wqwarp.rl.runner.WqRunner``); a fixed-gait run reports its usage and switch counts too.
 """
 
 from __future__ import annotations
@@ -15,12 +15,12 @@ import argparse
 import os
 import sys
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
 
 
 def summarise(run_dir: str, last: int) -> dict:
     """tag -> mean over the last ``last`` iterations, for the ``Gait/*``, ``Predictor/*`` and ``Metrics/*`` tags."""
-    from wqwarp.report import load_scalars
+    from wqwarp.eval.report import load_scalars
 
     scalars = load_scalars(run_dir)
     out: dict = {"run": run_dir, "last_iterations": last, "scalars": {}}
@@ -54,7 +54,7 @@ def main(argv=None) -> int:
     for k, v in rep["scalars"].items():
         print(f"  {k:<45} {v:10.4f}")
     if args.json:
-        from wqwarp.provenance import write_result_json
+        from wqwarp.utils.provenance import write_result_json
 
         write_result_json(args.json, rep)
     return 0

@@ -19,8 +19,8 @@ import argparse
 import sys
 import time
 
-from wqwarp.cli import ArgumentParser
-from wqwarp.play import parse_segments  # noqa: F401  (re-exported: the segment syntax of this tool)
+from wqwarp.cli.args import ArgumentParser
+from wqwarp.eval.loading import parse_segments  # noqa: F401  (re-exported: the segment syntax of this tool)
 
 DEFAULT_SEGMENTS = "0.6,0,0:4;0,0.4,0:4;0,0,0.6:4;0,0,0:4;-0.4,0,0:4"
 
@@ -50,11 +50,11 @@ def main(argv=None) -> int:
     import warp as wp
 
     wp.config.quiet = True
-    from wqwarp.config import to_dict
-    from wqwarp.evaluation import start_rollout
-    from wqwarp.gaits import GAIT_NAMES
-    from wqwarp.play import make_policy_runner
-    from wqwarp.provenance import write_result_json
+    from wqwarp.control.gaits import GAIT_NAMES
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.protocols import start_rollout
+    from wqwarp.rl.config import to_dict
+    from wqwarp.utils.provenance import write_result_json
 
     t0 = time.time()
     try:
@@ -131,7 +131,7 @@ def draw(out: dict, path: str) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from wqwarp.gaits import GAIT_NAMES
+    from wqwarp.control.gaits import GAIT_NAMES
 
     s = out["series_robot0"]
     t = np.array(s["t"])
@@ -160,7 +160,7 @@ def draw(out: dict, path: str) -> None:
     ax[3].legend(loc="upper right", fontsize=8)
     fig.suptitle(f"{out['preset']} (iteration {out['iteration']}), robot 0")
     fig.tight_layout()
-    from wqwarp.provenance import save_figure
+    from wqwarp.utils.provenance import save_figure
 
     save_figure(fig, path, dpi=100)
 

@@ -6,10 +6,10 @@ Usage::
                                --csv PATH [--plot PNG]
 
 Columns: ``t, phase_0..phase_3, swing_0..swing_3, foot_z_0..foot_z_3, wheel_vel_0..wheel_vel_3,
-q_target_0..q_target_11``. Legs in the project order FR, FL, RR, RL (``wqwarp.constants``); ``swing_i`` is 1 while leg
-i swings; ``foot_z`` is the nominal foot-point (calf end) height in the hip frame [m]; ``wheel_vel`` the nominal wheel
-speed [rad/s] with every wheel assumed on the ground (legs at the default pose for the lateral distances of Eq. (3));
-``q_target`` the nominal leg joint targets [rad] (hip, thigh, calf per leg). No physics runs.
+q_target_0..q_target_11``. Legs in the project order FR, FL, RR, RL (``wqwarp.robot.constants``); ``swing_i`` is 1 while
+leg i swings; ``foot_z`` is the nominal foot-point (calf end) height in the hip frame [m]; ``wheel_vel`` the nominal
+wheel speed [rad/s] with every wheel assumed on the ground (legs at the default pose for the lateral distances
+of Eq. (3)); ``q_target`` the nominal leg joint targets [rad] (hip, thigh, calf per leg). No physics runs.
 """
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ import tempfile
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser
-from wqwarp.gaits import GAIT_NAMES
+from wqwarp.cli.args import ArgumentParser
+from wqwarp.control.gaits import GAIT_NAMES
 
 COLUMNS = (
     ["t"]
@@ -39,8 +39,8 @@ def trace(gait: str, vx: float, vy: float, wz: float, seconds: float, dt: float)
     """Rows of ``COLUMNS`` for ``seconds`` of the nominal gait at policy step ``dt``."""
     import warp as wp
 
-    from wqwarp import constants as C
-    from wqwarp.nominal import NominalGait
+    from wqwarp.control.nominal import NominalGait
+    from wqwarp.robot import constants as C
 
     wp.config.quiet = True
     ng = NominalGait(1, "cpu")

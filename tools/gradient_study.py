@@ -1,4 +1,4 @@
-"""Gradient quality of the differentiable rollout (``wqwarp.sim.diffsim``) against horizon and dt.
+"""Gradient quality of the differentiable rollout (``wqwarp.diff.rollout``) against horizon and dt.
 
 Usage::
 
@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
 
 PARAM_SCALE = np.array([0.2, 0.1, 1.0, 0.4, 0.05])
 """Typical size of each gait parameter (h_b [m], h_s [m], f [Hz], DF_swing [-], stance x [m]): gradients are
@@ -50,8 +50,8 @@ GROUPS = {"gait": slice(0, 5), "legs": slice(5, 9), "wheels": slice(9, 11)}
 
 
 def study_point(gait: str, vx: float, dt: float, horizon_s: float, warmup_s: float) -> dict:
-    from wqwarp.sim.backend import SimConfig
-    from wqwarp.sim.diffsim import DiffRollout, gait_params
+    from wqwarp.diff.rollout import DiffRollout, gait_params
+    from wqwarp.sim.config import SimConfig
 
     decimation = max(1, round(0.02 / dt))
     policy_dt = dt * decimation
@@ -159,7 +159,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--dts and --horizons take comma-separated numbers, got {args.dts!r} and {args.horizons!r}")
     if not dts or min(dts) <= 0 or max(dts) > 0.02 or not horizons or min(horizons) <= 0 or args.warmup < 0:
         ap.error("need 0 < dt <= 0.02, horizons > 0 and warmup >= 0")
-    from wqwarp.gaits import GAIT_NAMES
+    from wqwarp.control.gaits import GAIT_NAMES
 
     if args.gait not in GAIT_NAMES:
         ap.error(f"unknown gait {args.gait!r}; choose one of {', '.join(GAIT_NAMES)}")
@@ -178,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"({time.time() - t0:.1f} s)", file=sys.stderr, flush=True)  # fmt: skip
     print(table(points))
     if args.json:
-        from wqwarp.provenance import write_result_json
+        from wqwarp.utils.provenance import write_result_json
 
         inputs = [{"input": a, "column": b, "name": c, "scale": float(d)} for a, b, c, d in INPUTS]
         write_result_json(args.json, {"gait": args.gait, "vx": args.vx, "warmup_s": args.warmup, "inputs": inputs,

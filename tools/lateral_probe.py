@@ -25,7 +25,7 @@ import tempfile
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser, output_problem
+from wqwarp.cli.args import ArgumentParser, output_problem
 
 COMMANDS = (-0.7, -0.5, -0.3, -0.1, 0.1, 0.3, 0.5, 0.7)
 
@@ -33,8 +33,8 @@ COMMANDS = (-0.7, -0.5, -0.3, -0.1, 0.1, 0.3, 0.5, 0.7)
 def probe_policy(checkpoint: str, seconds: float) -> dict:
     import torch
 
-    from wqwarp.evaluation import start_rollout
-    from wqwarp.play import make_policy_runner
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.protocols import start_rollout
 
     runner = make_policy_runner(checkpoint, None, num_envs=len(COMMANDS))
     env = runner.env
@@ -63,11 +63,12 @@ def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
     import torch
     import warp as wp
 
-    from wqwarp import constants as C
-    from wqwarp.env import quat_rotate_inv
+    from wqwarp.control.nominal import NominalGait
     from wqwarp.kernels.kinematics import compute_leg_ik
-    from wqwarp.nominal import NominalGait
-    from wqwarp.sim.backend import SimConfig, Simulator
+    from wqwarp.rl.env import quat_rotate_inv
+    from wqwarp.robot import constants as C
+    from wqwarp.sim.config import SimConfig
+    from wqwarp.sim.simulator import Simulator
 
     out = []
     for amp in amplitudes:
@@ -125,7 +126,7 @@ def main(argv=None) -> int:
 
     wp.config.quiet = True
     res = probe_policy(args.checkpoint, args.seconds) if args.checkpoint else probe_open_loop(amps, args.seconds)
-    from wqwarp.provenance import git_state
+    from wqwarp.utils.provenance import git_state
 
     res["command"] = " ".join(sys.argv)
     res["git"] = git_state()

@@ -6,8 +6,8 @@ Usage::
                                   [--horizon 0.1] [--windows 8] [--free h_b,h_s,frequency,df_swing,stance_x]
                                   [--eval-seconds 3] [--no-eval] [--json docs/diffsim/optimize_trotting_0.3.json]
 
-What runs: ``wqwarp.gait_tuning.optimize`` (Adam on J = P_smooth / v_c + w_v (v_x - v_c)^2 + w_h (z - z_0)^2 over
-``--windows`` short taped windows of the Featherstone rollout; see that module), then ``wqwarp.gait_tuning.evaluate``
+What runs: ``wqwarp.diff.tuning.optimize`` (Adam on J = P_smooth / v_c + w_v (v_x - v_c)^2 + w_h (z - z_0)^2 over
+``--windows`` short taped windows of the Featherstone rollout; see that module), then ``wqwarp.diff.tuning.evaluate``
 of the start (Table I) and of the best iterate with the closed-loop nominal gait and the exact p_cost on three
 physics settings: MuJoCo at dt 0.005 x 4 and at the paper's 0.001 x 20, and Featherstone at the tuning dt, each 2
 robots, 1 s warm-up, then ``--eval-seconds``. A gain that shows on Featherstone only is an artefact of that solver.
@@ -22,7 +22,7 @@ from __future__ import annotations
 import sys
 import time
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
 
 EVAL_SETTINGS = (("mujoco_cpu", 0.005, 4), ("mujoco_cpu", 0.001, 20))
 """MuJoCo settings (backend, dt, decimation) of the before/after evaluation; Featherstone at the tuning dt is added."""
@@ -45,7 +45,7 @@ def table(report: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from wqwarp.gait_tuning import TuneConfig
+    from wqwarp.diff.tuning import TuneConfig
 
     d = TuneConfig()
     ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog="See the module docstring for what runs.")
@@ -73,8 +73,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-eval", action="store_true", help="skip the before/after evaluation")
     ap.add_argument("--json", default=None, help="write the results here (JSON)")
     args = ap.parse_args(argv)
-    from wqwarp.gaits import GAIT_NAMES
-    from wqwarp.sim.diffsim import PARAM_NAMES
+    from wqwarp.control.gaits import GAIT_NAMES
+    from wqwarp.diff.rollout import PARAM_NAMES
 
     if args.gait not in GAIT_NAMES:
         ap.error(f"unknown gait {args.gait!r}; choose one of {', '.join(GAIT_NAMES)}")
@@ -92,7 +92,7 @@ def main(argv: list[str] | None = None) -> int:
     import warp as wp
 
     wp.config.quiet = True
-    from wqwarp.gait_tuning import evaluate, optimize
+    from wqwarp.diff.tuning import evaluate, optimize
 
     cfg = TuneConfig(gait=args.gait, vx=args.vx, dt=args.dt, horizon_s=args.horizon, warmup_s=args.warmup,
                      windows=args.windows, iterations=args.iterations, lr=args.lr, w_speed=args.w_speed,
@@ -122,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
                   flush=True)  # fmt: skip
         print(table(report))
     if args.json:
-        from wqwarp.provenance import write_result_json
+        from wqwarp.utils.provenance import write_result_json
 
         write_result_json(args.json, report)
     return 0

@@ -14,7 +14,7 @@ import json
 import os
 import sys
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
 
 
 def main(argv=None) -> int:
@@ -35,7 +35,7 @@ def main(argv=None) -> int:
     if not tasks:
         print("error: no vx / vy / wz results in the given files", file=sys.stderr)
         return 2
-    from wqwarp.report import draw_tracking_power
+    from wqwarp.eval.report import draw_tracking_power
 
     one = lambda v: {"mean": v, "std": 0.0, "n": 1}  # noqa: E731 - a single run: no spread
     stats = [(label, {t: {"mse": one(r["mse"]), "mean_p_cost": one(r["mean_p_cost"])} for t, r in res.items()})

@@ -13,8 +13,8 @@ from __future__ import annotations
 import os
 import sys
 
-from wqwarp.cli import ArgumentParser
-from wqwarp.report import load_scalars  # noqa: E402  (re-exported)
+from wqwarp.cli.args import ArgumentParser
+from wqwarp.eval.report import load_scalars  # noqa: E402  (re-exported)
 
 
 def main(argv=None) -> int:
@@ -56,7 +56,7 @@ def main(argv=None) -> int:
     axes[-1].set_xlabel("PPO iteration")
     axes[0].legend()
     fig.tight_layout()
-    from wqwarp.provenance import save_figure
+    from wqwarp.utils.provenance import save_figure
 
     save_figure(fig, args.out, dpi=100)
     print(f"wrote {args.out}")

@@ -50,8 +50,8 @@ import time
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser
-from wqwarp.play import parse_segments  # noqa: E402
+from wqwarp.cli.args import ArgumentParser
+from wqwarp.eval.loading import parse_segments  # noqa: E402
 
 EXTENSIONS = (".gif", ".mp4")
 GL_BACKENDS = ("egl", "osmesa")
@@ -331,9 +331,9 @@ def render(args, segments, writer, progress=print) -> dict:
     import warp as wp
 
     wp.config.quiet = True
-    from wqwarp.evaluation import start_rollout
-    from wqwarp.gaits import GAIT_NAMES
-    from wqwarp.play import make_policy_runner
+    from wqwarp.control.gaits import GAIT_NAMES
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.protocols import start_rollout
 
     extra = {} if args.seed is None else {"seed": args.seed}
     try:

@@ -21,15 +21,15 @@ import math
 import sys
 import time
 
-from wqwarp.cli import ArgumentParser, output_problem
+from wqwarp.cli.args import ArgumentParser, output_problem
 
 
 def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, decimation: int, seed: int,
          progress: bool = False) -> dict:  # fmt: skip
     import torch
 
-    from wqwarp.config import make_preset
-    from wqwarp.env import WheeledGo1Env
+    from wqwarp.rl.config import make_preset
+    from wqwarp.rl.env import WheeledGo1Env
 
     cfg = make_preset(preset)
     cfg.sim.num_envs = num_envs
@@ -95,8 +95,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=1, help="seed of actions, commands and the env (default 1)")
     ap.add_argument("--json", default=None, help="write the counts and events to this JSON file (atomically)")
     args = ap.parse_args(argv)
-    from wqwarp.config import PRESETS
-    from wqwarp.sim.backend import BACKENDS
+    from wqwarp.rl.config import PRESETS
+    from wqwarp.sim.config import BACKENDS
 
     if args.robot_steps < 1 or args.num_envs < 1 or args.decimation < 1 or not args.dt > 0:
         print("error: --robot-steps, --num-envs, --decimation and --dt must be positive", file=sys.stderr)
@@ -119,7 +119,7 @@ def main(argv=None) -> int:
     for e in res["events"][:10]:
         print(f"  diverged: {e}")
     if args.json:
-        from wqwarp import provenance
+        from wqwarp.utils import provenance
 
         provenance.write_result_json(args.json, res)
         print(f"wrote {args.json}")

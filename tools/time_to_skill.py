@@ -20,7 +20,7 @@ import json
 import os
 import sys
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
 
 
 def first_below(values: list[float], threshold: float, window: int) -> int | None:
@@ -37,7 +37,7 @@ def first_below(values: list[float], threshold: float, window: int) -> int | Non
 
 
 def analyse(run: str, metric: str, thresholds: list[float], window: int, bench: dict[int, float]) -> dict:
-    from wqwarp.report import load_scalars
+    from wqwarp.eval.report import load_scalars
 
     cfg_path = os.path.join(run, "config.json")
     if not os.path.isfile(cfg_path):
@@ -107,7 +107,7 @@ def main(argv=None) -> int:
         print(f"{os.path.basename(r['run'].rstrip('/')):<28} {r['robots']:>6} {r['seconds_per_iteration']:>6.2f} "
               f"{r['final']:>6.3f}  " + "  ".join(cells))  # fmt: skip
     if args.json:
-        from wqwarp import provenance
+        from wqwarp.utils import provenance
 
         provenance.write_result_json(args.json, {"metric": args.metric, "window": args.window,
                                                  "thresholds": thresholds, "results": results})  # fmt: skip

@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
 
 
 def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool) -> dict:
@@ -24,8 +24,8 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
     import torch
     import warp as wp
 
-    from wqwarp.evaluation import start_rollout
-    from wqwarp.gaits import GAIT_NAMES
+    from wqwarp.control.gaits import GAIT_NAMES
+    from wqwarp.eval.protocols import start_rollout
 
     env = runner.env
     n = env.num_envs
@@ -75,8 +75,8 @@ def main(argv=None) -> int:
     import warp as wp
 
     wp.config.quiet = True
-    from wqwarp.play import make_policy_runner
-    from wqwarp.provenance import write_result_json
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.utils.provenance import write_result_json
 
     try:
         runner = make_policy_runner(args.checkpoint, args.preset, args.robots)

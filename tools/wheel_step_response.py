@@ -30,7 +30,7 @@ import tempfile
 
 import numpy as np
 
-from wqwarp.cli import ArgumentParser, output_problem
+from wqwarp.cli.args import ArgumentParser, output_problem
 
 FLIP_TORQUE = 0.06
 """Torques below 1 % of the 6 N m limit [N m] do not count as a sign flip."""
@@ -39,8 +39,9 @@ FLIP_TORQUE = 0.06
 def run(kp, ki, kd, i_limit, dt, decimation, mode, target, seconds) -> dict:
     import warp as wp
 
-    from wqwarp import robot
-    from wqwarp.sim.backend import SimConfig, Simulator
+    from wqwarp.robot import asset as robot
+    from wqwarp.sim.config import SimConfig
+    from wqwarp.sim.simulator import Simulator
 
     wp.config.quiet = True
     cfg = SimConfig(
@@ -130,7 +131,7 @@ def main(argv=None) -> int:
     if args.json and (problem := output_problem(args.json)):
         print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
         return 2
-    from wqwarp import constants as C
+    from wqwarp.robot import constants as C
 
     print(f"{'mode':>8} {'dt':>6} {'kp':>5} {'ki':>5} {'kd':>5} {'rise[s]':>8} {'overshoot%':>10} {'settle[s]':>9} "
           f"{'steady err%':>11} {'flips':>6} {'W/wheel':>8} {'base vx':>8}")  # fmt: skip

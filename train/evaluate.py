@@ -21,14 +21,14 @@ import dataclasses
 import sys
 import time
 
-from wqwarp.cli import ArgumentParser, output_problem
+from wqwarp.cli.args import ArgumentParser, output_problem
 
 
 def main(argv=None) -> int:
-    from wqwarp.config import PRESETS
-    from wqwarp.evaluation import TASKS
-    from wqwarp.play import PHYSICS
-    from wqwarp.provenance import write_result_json
+    from wqwarp.eval.loading import PHYSICS
+    from wqwarp.eval.protocols import TASKS
+    from wqwarp.rl.config import PRESETS
+    from wqwarp.utils.provenance import write_result_json
 
     p = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
@@ -132,9 +132,9 @@ def main(argv=None) -> int:
     import warp as wp
 
     wp.config.quiet = True
-    from wqwarp.config import to_dict
-    from wqwarp.evaluation import PUSH_TASKS, run_task
-    from wqwarp.play import make_policy_runner
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.protocols import PUSH_TASKS, run_task
+    from wqwarp.rl.config import to_dict
 
     t_start = time.time()
 
@@ -156,7 +156,7 @@ def main(argv=None) -> int:
             if runner.env.gait_selector.name != "predictive":
                 print(f"error: --force-gait needs a predictive preset, not {runner.preset}", file=sys.stderr)
                 return 2
-            from wqwarp.gaits import gait_index
+            from wqwarp.control.gaits import gait_index
 
             runner.env.gait_selector.forced_gait = gait_index(args.force_gait)
         cfg = runner.env.cfg

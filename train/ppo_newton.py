@@ -28,11 +28,11 @@ import os
 import sys
 import time
 
-from wqwarp.cli import ArgumentParser, directory_problem
+from wqwarp.cli.args import ArgumentParser, directory_problem
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    from wqwarp.config import PRESETS
+    from wqwarp.rl.config import PRESETS
 
     p = ArgumentParser(
         prog="ppo_newton.py",
@@ -218,7 +218,7 @@ class Progress:
     def line(self, it: int, ep: dict, collect: float, learn: float) -> None:
         import statistics
 
-        from wqwarp.gait_selection import usage_from_scalars
+        from wqwarp.rl.gait_selection import usage_from_scalars
 
         done = it + 1 - self.start
         frac = (it + 1) / max(self.total, 1)
@@ -275,16 +275,16 @@ def main(argv=None) -> int:
     if device.startswith("cuda") and not wp.is_cuda_available():
         fail(f"--device {device}: no CUDA device is available to Warp")
     torch.manual_seed(args.seed + rank)
-    from wqwarp.threads import configure_threads
+    from wqwarp.utils.threads import configure_threads
 
     try:
         threads = configure_threads(args.threads, args.torch_threads, args.physics_threads, args.update_threads)
     except ValueError as e:
         fail(f"--{e}")
 
-    from wqwarp.config import TrainConfig, make_preset, to_dict
-    from wqwarp.env import WheeledGo1Env
-    from wqwarp.runner import WqRunner, export_onboard_policy
+    from wqwarp.rl.config import TrainConfig, make_preset, to_dict
+    from wqwarp.rl.env import WheeledGo1Env
+    from wqwarp.rl.runner import WqRunner, export_onboard_policy
 
     log_dir = resolve_log_dir(args)
     cfg = make_preset(args.preset)
@@ -297,7 +297,7 @@ def main(argv=None) -> int:
     cfg.estimator.use_true_state = args.true_state
     if args.phase_residual is not None:
         cfg.action.phase_residual_mode = args.phase_residual
-    from wqwarp.config import REWARD_TERMS
+    from wqwarp.rl.config import REWARD_TERMS
 
     for item in args.reward:
         term, _, value = item.partition("=")

@@ -33,7 +33,7 @@ import sys
 import time
 from dataclasses import asdict, dataclass
 
-from wqwarp.cli import ArgumentParser
+from wqwarp.cli.args import ArgumentParser
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -311,7 +311,7 @@ def main(argv=None) -> int:
                 if not funcs[stage](args, budget, preset, seed):
                     failed.append(f"{stage} {preset} seed {seed}")
     if "report" in stages:
-        from wqwarp.report import write_report
+        from wqwarp.eval.report import write_report
 
         write_report(args.work, args.out, args.budget, budget, presets, seeds, wall_s=time.time() - t0)
         print(f"wrote {os.path.join(args.out, 'RESULTS.md')}")

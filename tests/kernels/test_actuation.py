@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp.constants import TORQUE_LIMITS
 from wqwarp.kernels.actuation import (
     launch_actuation,
     launch_reset_wheel_pid,
     leg_pd_torque,
     wheel_pid_torque,
 )
+from wqwarp.robot.constants import TORQUE_LIMITS
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 NUM_ENVS = 4

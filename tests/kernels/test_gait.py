@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp import constants
-from wqwarp.gaits import GAIT_LIBRARY, gait_index, gait_library_arrays
+from wqwarp.control.gaits import GAIT_LIBRARY, gait_index, gait_library_arrays
 from wqwarp.kernels import gait, kinematics
+from wqwarp.robot import constants
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 H_B = constants.NOMINAL_BODY_HEIGHT

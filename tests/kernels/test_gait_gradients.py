@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp.gaits import GAIT_LIBRARY, gait_index
+from wqwarp.control.gaits import GAIT_LIBRARY, gait_index
 from wqwarp.kernels.gait import GAIT_PARAM_NAMES, open_loop_gait_targets, phase_update, swing_progress
 
 EPS = 1e-3  # finite-difference step; float32 noise ~1e-4 relative

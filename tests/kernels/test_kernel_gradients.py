@@ -20,8 +20,6 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp import constants as C
-from wqwarp.config import RewardConfig
 from wqwarp.kernels.actuation import apply_actuation, apply_actuation_taped, leg_pd_torque
 from wqwarp.kernels.gait import nominal_wheel_velocity, swing_height, swing_x
 from wqwarp.kernels.kinematics import compute_leg_fk, compute_leg_ik
@@ -35,6 +33,8 @@ from wqwarp.kernels.power import (
     smooth_abs,
 )
 from wqwarp.kernels.rewards import compute_rewards, tracking_reward
+from wqwarp.rl.config import RewardConfig
+from wqwarp.robot import constants as C
 
 EPS = 1e-3  # float32: central differences with h = 1e-3 leave ~1e-4 relative noise
 RTOL, ATOL = 2e-2, 2e-3
@@ -286,7 +286,7 @@ def test_accumulate_power_p_cost_gradient(device):
 
 
 def test_accumulate_p_cost_taped_smooth_gradient_including_zero(device):
-    """The smooth p_cost output of ``accumulate_p_cost_taped`` (``wqwarp.sim.diffsim``'s objective) w.r.t. torques and
+    """The smooth p_cost output of ``accumulate_p_cost_taped`` (``wqwarp.diff.rollout``'s objective) w.r.t. torques and
     joint speeds, with exact zeros among them (eps_tau = eps_qd = 0.05, diffsim's defaults)."""
     rng = np.random.default_rng(6)
     tau, qd = rng.uniform(-2, 2, (2, 16)), rng.uniform(-2, 2, (2, DOFS))

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp import constants
 from wqwarp.kernels import kinematics
+from wqwarp.robot import constants
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 SIDES = np.array(constants.LEG_SIDE_SIGN)

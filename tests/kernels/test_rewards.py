@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp.config import REWARD_TERMS, RewardConfig
 from wqwarp.kernels.rewards import compute_rewards
+from wqwarp.rl.config import REWARD_TERMS, RewardConfig
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp import constants as C
 from wqwarp.kernels.actions import joint_offset_targets, residual_targets
 from wqwarp.kernels.kinematics import leg_fk_numpy
 from wqwarp.kernels.state import mujoco_state_to_newton, newton_state_to_mujoco
+from wqwarp.robot import constants as C
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 COM = np.array([0.0223, 0.002, -0.0005])

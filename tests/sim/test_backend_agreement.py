@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from wqwarp import constants as C
-from wqwarp.sim.backend import SimConfig, Simulator
+from wqwarp.robot import constants as C
+from wqwarp.sim.config import SimConfig
+from wqwarp.sim.simulator import Simulator
 
 
 def _rollout(backend: str) -> list[np.ndarray]:

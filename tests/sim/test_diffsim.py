@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp import constants as C
-from wqwarp.gait_tuning import TuneConfig, objective_weights, param_bounds
-from wqwarp.sim.backend import SimConfig, Simulator
-from wqwarp.sim.diffsim import DiffRollout, RolloutResult, gait_params
+from wqwarp.diff.rollout import DiffRollout, RolloutResult, gait_params
+from wqwarp.diff.tuning import TuneConfig, objective_weights, param_bounds
+from wqwarp.robot import constants as C
+from wqwarp.sim.config import SimConfig
+from wqwarp.sim.simulator import Simulator
 
 STEPS = np.array([0.002, 0.001, 0.01, 0.004, 0.0005])
 """Central-difference steps for h_b [m], h_s [m], f [Hz], DF_swing [-], stance x [m]."""
@@ -151,7 +152,7 @@ def test_param_bounds_keep_the_gaits_apart():
 
 
 def test_optimize_runs_inside_the_bounds_and_keeps_its_best_iterate():
-    from wqwarp.gait_tuning import optimize
+    from wqwarp.diff.tuning import optimize
 
     cfg = TuneConfig(gait="trotting", vx=0.3, dt=0.005, horizon_s=0.04, warmup_s=0.1, windows=2, iterations=3,
                      free=("h_s", "frequency"))  # fmt: skip

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp.nominal import NominalGait
-from wqwarp.sim.backend import SimConfig, Simulator
+from wqwarp.control.nominal import NominalGait
+from wqwarp.sim.config import SimConfig
+from wqwarp.sim.simulator import Simulator
 
 
 def _run_open_loop(gait: str, command, seconds: float, n: int = 2, device: str = "cpu"):

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wqwarp import constants as C
-from wqwarp.sim.backend import SimConfig, Simulator
+from wqwarp.robot import constants as C
+from wqwarp.sim.config import SimConfig
+from wqwarp.sim.simulator import Simulator
 
 
 @pytest.fixture(scope="module")
@@ -159,7 +160,7 @@ def test_low_friction_makes_the_wheels_slip():
 # --- energy-faithful actuation (wheel loop stable loaded and airborne, at the default and the paper's dt) ------------
 def _airborne_wheels(backend: str, dt: float, decimation: int, seconds: float = 0.5):
     """Robot in free fall (no ground load), wheels commanded 5 rad/s from rest; per-substep wheel torques and speeds."""
-    from wqwarp import robot
+    from wqwarp.robot import asset as robot
 
     sim = Simulator(SimConfig(num_envs=1, backend=backend, device="cpu", dt=dt, decimation=1))
     q = robot.default_joint_q(sim.layout, base_height=50.0)[None]
@@ -193,7 +194,7 @@ def test_airborne_wheel_chatters_with_the_old_gain():
         Simulator(cfg)
     cfg.check_wheel_stability = False
     sim = Simulator(cfg)
-    from wqwarp import robot
+    from wqwarp.robot import asset as robot
 
     sim.reset([0], robot.default_joint_q(sim.layout, base_height=50.0)[None], np.zeros((1, 22), np.float32))
     sim.wheel_qd_target.fill_(5.0)

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from wqwarp.constants import MAX_HORIZONTAL_OFFSET, NUM_LEGS
+from wqwarp.robot.constants import MAX_HORIZONTAL_OFFSET, NUM_LEGS
 
 
 @dataclass(frozen=True)

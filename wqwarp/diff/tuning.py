@@ -1,8 +1,8 @@
 """Gradient-based tuning of a nominal gait's parameters for energy per metre, on the differentiable path.
 
 The paper sets its gait library by hand (Table I). :func:`optimize` tunes one gait's parameters theta = (h_b, h_s,
-f, DF_swing, stance x) (``wqwarp.sim.diffsim.PARAM_NAMES``) at a commanded forward speed v_c with Adam on the
-gradients of :class:`wqwarp.sim.diffsim.DiffRollout`, minimising
+f, DF_swing, stance x) (``wqwarp.diff.rollout.PARAM_NAMES``) at a commanded forward speed v_c with Adam on the
+gradients of :class:`wqwarp.diff.rollout.DiffRollout`, minimising
 
     J(theta) = P_smooth / v_c + w_v (v_x - v_c)^2 + w_h (z - z_0)^2        [J/m]
 
@@ -25,7 +25,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from wqwarp.gaits import GAIT_LIBRARY, Gait, gait_index
+from wqwarp.control.gaits import GAIT_LIBRARY, Gait, gait_index
 
 PARAM_SCALE = np.array([0.2, 0.1, 1.0, 0.4, 0.05])
 """Typical size of each parameter [m, m, Hz, -, m]: Adam works on theta / scale."""
@@ -103,8 +103,8 @@ def optimize(cfg: TuneConfig, progress=None) -> dict:
     (``cfg.accept_seconds``) among those whose robots all stayed up."""
     import warp as wp
 
-    from wqwarp.sim.backend import SimConfig
-    from wqwarp.sim.diffsim import PARAM_NAMES, DiffRollout, gait_params
+    from wqwarp.diff.rollout import PARAM_NAMES, DiffRollout, gait_params
+    from wqwarp.sim.config import SimConfig
 
     unknown = [p for p in cfg.free if p not in PARAM_NAMES]
     if unknown:
@@ -188,9 +188,10 @@ def evaluate(params, gait: str, vx: float, backend: str = "mujoco_cpu", dt: floa
     import torch
     import warp as wp
 
-    from wqwarp.env import quat_rotate_inv
-    from wqwarp.nominal import NominalGait
-    from wqwarp.sim.backend import SimConfig, Simulator
+    from wqwarp.control.nominal import NominalGait
+    from wqwarp.rl.env import quat_rotate_inv
+    from wqwarp.sim.config import SimConfig
+    from wqwarp.sim.simulator import Simulator
 
     p = [float(x) for x in params]
     base = GAIT_LIBRARY[gait_index(gait)]

@@ -3,7 +3,7 @@
 Lifecycle of :meth:`WheeledGo1Env.step`: actions -> (nominal gait + residuals -> IK -> targets) -> physics
 (decimation x (actuation, power, MuJoCo)) -> rewards (``wqwarp.kernels.rewards``) -> terminations, gait-selector
 bookkeeping and resets -> commands and pushes -> estimator -> observations -> gait selection on o_t
-(``wqwarp.gait_selection``). Nothing learns inside ``step``: with ``collect_training_data`` set the env only stores
+(``wqwarp.rl.gait_selection``). Nothing learns inside ``step``: with ``collect_training_data`` set the env only stores
 training data for the estimator and the power predictor, which the runner fits. Simulator arrays cross to torch
 zero-copy.
 
@@ -33,15 +33,15 @@ import warp as wp
 from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
-from wqwarp import constants as C
-from wqwarp.config import REWARD_TERMS, EnvConfig
-from wqwarp.estimator import EstimatorTrainer, StateEstimator
-from wqwarp.gait_selection import make_gait_selector
-from wqwarp.gaits import GAIT_LIBRARY, GAIT_NAMES, gait_index
+from wqwarp.control.gaits import GAIT_LIBRARY, GAIT_NAMES, gait_index
+from wqwarp.control.nominal import NominalGait
 from wqwarp.kernels.actions import joint_offset_targets, residual_targets
 from wqwarp.kernels.rewards import compute_rewards
-from wqwarp.nominal import NominalGait
-from wqwarp.sim.backend import Simulator
+from wqwarp.rl.config import REWARD_TERMS, EnvConfig
+from wqwarp.rl.estimator import EstimatorTrainer, StateEstimator
+from wqwarp.rl.gait_selection import make_gait_selector
+from wqwarp.robot import constants as C
+from wqwarp.sim.simulator import Simulator
 
 PRIVILEGED_DIM = 3 + 1 + 1 + 1 + 1 + 4 + 2 + len(GAIT_LIBRARY)
 
@@ -203,7 +203,7 @@ class WheeledGo1Env(VecEnv):
         estimator and labelled power windows for the predictor, and the predictive selector samples at the
         schedule's temperature. False (the default: evaluation, playback, export) stores nothing, so nothing can
         learn, and the selector uses ``predictor.evaluation_selection``. The learning itself happens in the runner
-        (``wqwarp.runner.WqRunner``), never in :meth:`step`."""
+        (``wqwarp.rl.runner.WqRunner``), never in :meth:`step`."""
         return self._collect
 
     @collect_training_data.setter

@@ -36,7 +36,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from wqwarp import constants as C
+from wqwarp.robot import constants as C
 
 USD_EXTENSIONS: tuple[str, ...] = (".usda", ".usdc", ".usd")
 """Output formats: text, binary crate, and ``.usd`` (written as crate)."""
@@ -135,8 +135,8 @@ class RolloutRecorder:
 
     Usage: ``rec = RolloutRecorder.for_simulator(sim, seconds, fps)``; call :meth:`capture` with step 0 after reset
     and with step k after the k-th ``sim.step()`` (it stores only the steps some frame needs); then
-    :meth:`write`. ``nominal`` (a :class:`wqwarp.nominal.NominalGait`) adds the gait, phase and command attributes.
-    """
+    :meth:`write`. ``nominal`` (a :class:`wqwarp.control.nominal.NominalGait`) adds the gait, phase and command
+    attributes. """
 
     def __init__(
         self,
@@ -157,7 +157,7 @@ class RolloutRecorder:
         self.seconds = float(seconds)
         self.policy_dt = float(policy_dt)
         if gait_names is None:
-            from wqwarp.gaits import GAIT_NAMES
+            from wqwarp.control.gaits import GAIT_NAMES
 
             gait_names = GAIT_NAMES
         self.gait_names = tuple(gait_names)
@@ -179,7 +179,7 @@ class RolloutRecorder:
 
     @classmethod
     def for_simulator(cls, sim, seconds: float, fps: float, **kwargs) -> RolloutRecorder:
-        """A recorder matching ``sim`` (a :class:`wqwarp.sim.backend.Simulator`)."""
+        """A recorder matching ``sim`` (a :class:`wqwarp.sim.simulator.Simulator`)."""
         lay = sim.layout
         names = list(sim.model.body_label[: lay.bodies_per_world])
         return cls(names, sim.num_envs, seconds, fps, sim.policy_dt, **kwargs)
@@ -268,7 +268,7 @@ class RolloutRecorder:
         }
         info.update(metadata or {})
         layer.customLayerData = {"wqwarp": info}
-        layer.documentation = "wqwarp rollout; written by wqwarp.usd_export"
+        layer.documentation = "wqwarp rollout; written by wqwarp.viz.usd"
 
         world = UsdGeom.Xform.Define(stage, "/World")
         stage.SetDefaultPrim(world.GetPrim())

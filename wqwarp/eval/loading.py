@@ -1,7 +1,7 @@
 """Load a trained checkpoint into an environment for evaluation, rollouts and export.
 
 The environment is built from the configuration the checkpoint records (``infos['env_cfg']``, read whole by
-``wqwarp.config.from_dict``), never from a preset's today defaults; evaluation changes only what
+``wqwarp.rl.config.from_dict``), never from a preset's today defaults; evaluation changes only what
 :func:`evaluation_config` names, before the env is built.
 """
 
@@ -17,9 +17,9 @@ from dataclasses import dataclass
 
 import torch
 
-from wqwarp.config import EnvConfig, TrainConfig, env_config_from_dict, make_preset
-from wqwarp.constants import AUTHORS_GROUND_FRICTION
-from wqwarp.env import WheeledGo1Env
+from wqwarp.rl.config import EnvConfig, TrainConfig, env_config_from_dict, make_preset
+from wqwarp.rl.env import WheeledGo1Env
+from wqwarp.robot.constants import AUTHORS_GROUND_FRICTION
 
 
 @dataclass
@@ -45,7 +45,7 @@ def checkpoint_preset(path: str) -> str | None:
 
 def checkpoint_env_config(path: str) -> EnvConfig:
     """The environment configuration a checkpoint was trained with (its ``infos['env_cfg']``), read whole
-    (``wqwarp.config.from_dict``); ValueError if the file records none or one this version cannot read."""
+    (``wqwarp.rl.config.from_dict``); ValueError if the file records none or one this version cannot read."""
     try:
         ckpt = torch.load(path, map_location="cpu", weights_only=False)
     except Exception as e:  # noqa: BLE001 - pickle, zip and EOF errors all mean the same to the user
@@ -126,7 +126,7 @@ def _preset_differences(preset: str, cfg: EnvConfig) -> list[str]:
 
 def infer_preset(cfg: EnvConfig) -> str | None:
     """The method (preset name) a configuration was trained as, from its behaviour settings; None if none fits."""
-    from wqwarp.config import PRESETS
+    from wqwarp.rl.config import PRESETS
 
     hits = [p for p in PRESETS if not _preset_differences(p, cfg)]
     return hits[0] if len(hits) == 1 else None
@@ -148,7 +148,7 @@ def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, devic
     label of the results; if given it must match how the checkpoint was trained. Raises ValueError for a missing
     file, a checkpoint without a readable configuration, another observation/action layout, a wrong preset, a dt
     that does not divide the policy step, or an unknown ``physics`` (:data:`PHYSICS`)."""
-    from wqwarp.runner import WqRunner
+    from wqwarp.rl.runner import WqRunner
 
     if not os.path.isfile(checkpoint):
         raise ValueError(f"no such checkpoint: {checkpoint}")

@@ -133,7 +133,7 @@ def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "v
         ax.grid(axis="y", alpha=0.3)
     axes[0].legend(fontsize=8)
     fig.tight_layout()
-    from wqwarp.provenance import save_figure
+    from wqwarp.utils.provenance import save_figure
 
     save_figure(fig, path, dpi=100)
 
@@ -160,7 +160,7 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
     """Write ``out/RESULTS.md`` and ``out/results/<budget>/`` (results.json, the evaluation JSONs, PNGs)."""
     from dataclasses import asdict
 
-    from wqwarp.provenance import git_state, write_result_json
+    from wqwarp.utils.provenance import git_state, write_result_json
 
     git = git_state()  # before this report writes anything
     res_dir = os.path.join(out, "results", budget_name)

@@ -19,9 +19,9 @@ from rsl_rl.runners import OnPolicyRunner
 from torch import nn
 
 from wqwarp import __version__
-from wqwarp.config import to_dict
-from wqwarp.constants import ACTUATED_JOINT_NAMES
-from wqwarp.env import WheeledGo1Env, observation_layout
+from wqwarp.rl.config import to_dict
+from wqwarp.rl.env import WheeledGo1Env, observation_layout
+from wqwarp.robot.constants import ACTUATED_JOINT_NAMES
 
 CHECKPOINT_FORMAT = 1
 
@@ -57,7 +57,7 @@ class WqRunner(OnPolicyRunner):
         """``Gait/*`` and ``Predictor/*`` scalars of the last iteration (also on the console)."""
         self.update_threads: int | None = None
         """Torch intra-op threads during the PPO update and the auxiliary fits (None: leave torch's setting);
-        collection keeps torch's setting (``wqwarp.threads``: the physics threads run then)."""
+        collection keeps torch's setting (``wqwarp.utils.threads``: the physics threads run then)."""
         ppo_update = self.alg.update
 
         def update(*args, **kwargs):
@@ -233,7 +233,7 @@ def check_compatible(infos: dict, env: WheeledGo1Env, path: str) -> None:
 class OnboardPolicy(nn.Module):
     """Everything the robot runs at 50 Hz: proprioceptive history (B, H, D) -> estimator z_t -> o_t -> actor.
 
-    The newest history row is o_t without z_t (``wqwarp.env.observation_layout`` minus ``estimate``), unnormalised
+    The newest history row is o_t without z_t (``wqwarp.rl.env.observation_layout`` minus ``estimate``), unnormalised
     and scaled exactly as in training; z_t is inserted before the command.
     """
 
@@ -271,7 +271,7 @@ class OnboardPolicyWithPredictor(OnboardPolicy):
 def export_onboard_policy(runner: WqRunner, out_dir: str) -> dict[str, str]:
     """Write ``policy.pt`` (TorchScript), ``policy.onnx`` and ``policy.json`` (layout, scales, gait selection rule)
     to ``out_dir``. With predictive gait selection the module also returns each gait's predicted power."""
-    from wqwarp.gaits import GAIT_NAMES
+    from wqwarp.control.gaits import GAIT_NAMES
 
     env = runner.env
     os.makedirs(out_dir, exist_ok=True)

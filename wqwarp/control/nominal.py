@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from wqwarp import constants as C
-from wqwarp.gaits import GAIT_LIBRARY, Gait, gait_index, gait_library_arrays
+from wqwarp.control.gaits import GAIT_LIBRARY, Gait, gait_index, gait_library_arrays
 from wqwarp.kernels import gait as gait_kernels
+from wqwarp.robot import constants as C
 
 
 class NominalGait:
@@ -67,7 +67,7 @@ class NominalGait:
     def reset(self, env_ids, gait_id: int | np.ndarray | None = None) -> None:
         """Restart the phases of ``env_ids`` in gait ``gait_id`` (default: the currently requested gait).
         ``env_ids`` may be a Warp array or torch tensor on the device (no host copy) or a list / NumPy array."""
-        from wqwarp.sim.backend import index_array
+        from wqwarp.sim.simulator import index_array
 
         ids = index_array(env_ids, self.device, self.world_count)
         if ids.shape[0] == 0:

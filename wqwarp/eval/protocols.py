@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from wqwarp.gait_selection import usage_from_scalars
+from wqwarp.rl.gait_selection import usage_from_scalars
 
 TASKS = {"vx": (0, (-1.0, 1.0)), "vy": (1, (-0.7, 0.7)), "wz": (2, (-0.7, 0.7)), "stand": (0, (0.0, 0.0))}
 """Task -> (command axis, range) of the paper's tracking evaluation (Sec. IV-A)."""
@@ -158,7 +158,7 @@ class TaskMetrics:
 def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: float = 0.0,
              push_interval: float = 15.0, progress=None,
              command_range: tuple[float, float] | None = None) -> EvalResult:  # fmt: skip
-    """Roll out ``runner.policy`` (``wqwarp.play.PolicyRunner``) on ``task`` for ``seconds``; ``command_range``
+    """Roll out ``runner.policy`` (``wqwarp.eval.loading.PolicyRunner``) on ``task`` for ``seconds``; ``command_range``
     replaces the task's range (e.g. :data:`PUSH_TASKS`)."""
     if task not in TASKS:
         raise ValueError(f"unknown task {task!r}; choose from {', '.join(TASKS)}")
@@ -205,7 +205,7 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
     c = max(metrics.steps, 1)
     predicted = predicted_running = None
     if predictive:  # over all robots, as every metric; falls are reported beside them
-        from wqwarp.gaits import GAIT_NAMES
+        from wqwarp.control.gaits import GAIT_NAMES
 
         mean_pred = (pred_sum / c).mean(0)
         predicted = {g: float(mean_pred[i]) for i, g in enumerate(GAIT_NAMES[:num_gaits])}

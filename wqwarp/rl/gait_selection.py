@@ -22,7 +22,7 @@ the requested gait is in effect and no window is open; it is labelled with the r
 labelled. With decision interval = horizon, every selection that is not cut yields one window.
 
 Learning happens in the runner, not in ``VecEnv.step``: the env only stores labelled windows while its
-``collect_training_data`` flag is set (``wqwarp.runner.WqRunner.learn`` sets it), and the runner calls
+``collect_training_data`` flag is set (``wqwarp.rl.runner.WqRunner.learn`` sets it), and the runner calls
 :meth:`GaitSelector.fit` after each PPO update.
 """
 
@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
-from wqwarp.estimator import mlp
+from wqwarp.rl.estimator import mlp
 
 COMMAND_TYPES: tuple[str, ...] = ("forward", "lateral", "yaw", "mixed", "zero")
 """Command types of the usage logs: only v_x, only v_y, only w_z non-zero; several; none."""
@@ -482,7 +482,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
 
 def make_gait_selector(cfg, requested: torch.Tensor | None, gait_names: tuple[str, ...], start_gait: int,
                        policy_dt: float, obs_dim: int) -> GaitSelector:  # fmt: skip
-    """The selector of ``cfg.gait.selection`` (``cfg``: ``wqwarp.config.EnvConfig``)."""
+    """The selector of ``cfg.gait.selection`` (``cfg``: ``wqwarp.rl.config.EnvConfig``)."""
     sel = cfg.gait.selection
     if sel == "none":
         return GaitSelector()

@@ -3,7 +3,7 @@
 Paper, "Estimator Module": an MLP trained by supervised learning in simulation estimates the planar base velocity
 and the base height from the observation history O_t^H (H = 6). Here it is regressed on the rollouts the PPO runner
 collects: the environment stores (history, true state) pairs every step while a training runner collects, and the
-runner fits the MLP after each PPO update (``wqwarp.runner.WqRunner``), never the environment itself.
+runner fits the MLP after each PPO update (``wqwarp.rl.runner.WqRunner``), never the environment itself.
 """
 
 from __future__ import annotations

@@ -176,7 +176,7 @@ def _asset_dir() -> str:
             return str(found)
     except (ModuleNotFoundError, TypeError):
         pass
-    return os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "assets", "usd")
+    return os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "assets", "usd")
 
 
 ASSET_DIR = _asset_dir()

@@ -1,6 +1,6 @@
 """Differentiable rollouts of the wheeled Go1 on Newton's Featherstone solver with spring-damper contacts.
 
-The MuJoCo solvers behind :class:`wqwarp.sim.backend.Simulator` are not differentiable. This module runs the same
+The MuJoCo solvers behind :class:`wqwarp.sim.simulator.Simulator` are not differentiable. This module runs the same
 robot, the same actuation (``kernels.actuation``: leg PD, wheel PID, torque limits) and the same power metrics
 (``kernels.power``) on ``newton.solvers.SolverFeatherstone``, whose steps ``wp.Tape`` can differentiate, with
 Newton's penalty contact (``SimConfig.contact_ke``, ``contact_kd``, ``contact_kf``, ``contact_mu``). The same physics
@@ -36,13 +36,13 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from wqwarp import constants as C
-from wqwarp import robot
-from wqwarp.gaits import GAIT_LIBRARY, gait_index
+from wqwarp.control.gaits import GAIT_LIBRARY, gait_index
 from wqwarp.kernels import actions, actuation, power
 from wqwarp.kernels import gait as gait_kernels
 from wqwarp.kernels.contacts import anchor_contact_points, anchored_penalty_contacts
 from wqwarp.kernels.state import accumulate_base_motion
+from wqwarp.robot import asset as robot
+from wqwarp.robot import constants as C
 
 SOLVER_MATRICES = ("M", "J", "P", "H", "L")
 """Featherstone's solver-wide buffers that one step writes and its adjoint reads."""
@@ -134,7 +134,7 @@ class DiffRollout:
         """Evaluate the contact forces with ``kernels.contacts.anchored_penalty_contacts`` (a wheel's contact point
         carried by its calf, so it does not turn with the wheel within a substep) instead of inside Featherstone
         (Newton's ``eval_body_contact``, the point fixed on the wheel). Same forward forces; see the README."""
-        from wqwarp.sim.backend import apply_joint_model
+        from wqwarp.sim.simulator import apply_joint_model
 
         with wp.ScopedDevice(self.device):
             self.model = robot.scene_builder(n).finalize(device=self.device, requires_grad=True)

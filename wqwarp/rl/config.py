@@ -16,7 +16,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
-from wqwarp.sim.backend import SimConfig
+from wqwarp.sim.config import SimConfig
 
 REWARD_TERMS: tuple[str, ...] = (
     "track_vx",
@@ -98,7 +98,7 @@ class GaitConfig:
 
     selection: str = "fixed"
     """``fixed``: always ``fixed_gait``; ``none``: no nominal gait (baseline); ``predictive``: the power predictor
-    picks each robot's gait by softmax sampling (``wqwarp.gait_selection``)."""
+    picks each robot's gait by softmax sampling (``wqwarp.rl.gait_selection``)."""
     fixed_gait: str = "trotting"
     """Gait from the paper's Table I used when ``selection == 'fixed'`` (and at start-up with ``predictive``)."""
     body_height: float = 0.2
@@ -184,7 +184,7 @@ class ActionConfig:
 
 @dataclass
 class ObservationConfig:
-    """Observation scales and noise (legged_gym-style, documented in ``wqwarp.env``)."""
+    """Observation scales and noise (legged_gym-style, documented in ``wqwarp.rl.env``)."""
 
     lin_vel_scale: float = 2.0
     ang_vel_scale: float = 0.25

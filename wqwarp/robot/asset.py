@@ -1,7 +1,7 @@
 """Load the wheeled Go1 USD into Newton and describe where the project's joints and bodies live in the model.
 
 Newton orders a USD articulation depth-first by prim name (FL, FR, RL, RR), while the project uses FR, FL, RR, RL
-(``wqwarp.constants``). :class:`RobotLayout` holds the per-world index maps between the two, so kernels index
+(``wqwarp.robot.constants``). :class:`RobotLayout` holds the per-world index maps between the two, so kernels index
 ``joint_q`` / ``joint_qd`` / ``body_q`` through small int arrays and nothing else depends on Newton's order.
 """
 
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import newton
 import numpy as np
 
-from wqwarp import constants as C
+from wqwarp.robot import constants as C
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,1 @@
+"""Gait control: the paper's gait library and the batched nominal-gait controller."""

@@ -1,0 +1,1 @@
+"""The differentiable path: taped rollouts on Newton Featherstone and gradient-based gait tuning."""

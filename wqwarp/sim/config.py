@@ -1,0 +1,111 @@
+"""Physics and low-level control settings of :class:`wqwarp.sim.simulator.Simulator` (no physics imported here:
+reading a config never loads Newton or MuJoCo)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from wqwarp.robot import constants as C
+
+BACKENDS = ("auto", "mujoco_cpu", "mujoco_warp", "featherstone")
+JOINT_MODELS = ("asset", "authors")
+
+
+@dataclass
+class SimConfig:
+    """Physics and low-level control settings. Units in brackets."""
+
+    num_envs: int = 64
+    """Number of robots, one per world."""
+    device: str = "cpu"
+    """Warp device of the Newton model and all buffers: ``cpu`` or ``cuda:N``."""
+    backend: str = "auto"
+    """``mujoco_cpu`` (mujoco.rollout on all cores), ``mujoco_warp`` (Newton SolverMuJoCo), ``featherstone``
+    (Newton SolverFeatherstone with spring-damper contacts, the physics of the differentiable path
+    ``wqwarp.diff.rollout``; slow, for few robots), or ``auto``: ``mujoco_cpu`` on the CPU device, ``mujoco_warp`` on
+    CUDA."""
+    dt: float = 0.005
+    """Physics substep [s]. The paper uses 0.001 with decimation 20; 0.005 x 4 costs ~5x less per policy step."""
+    decimation: int = 4
+    """Physics substeps per policy step; policy rate = 1 / (dt * decimation) (50 Hz by default)."""
+    leg_kp: float = 40.0
+    """Leg PD stiffness [N m/rad] (authors' public harness: Kp 40)."""
+    leg_kd: float = 1.0
+    """Leg PD damping [N m s/rad] (harness: Kd 1)."""
+    wheel_kp: float = 0.5
+    """Wheel velocity-PID proportional gain [N m s/rad]. Bounded by the airborne wheel: the loop computes its torque
+    from the velocity at the start of each substep (explicit feedback), which is stable on a free wheel only for
+    kp dt / I < 2 and free of ringing for kp dt / I <= 1, I = ``constants.WHEEL_AIRBORNE_INERTIA`` = 2.75e-3 kg m^2.
+    kp 0.5 gives 0.91 at dt 0.005 and 0.18 at dt 0.001, so swing wheels neither chatter nor ring at either step;
+    kp 2 (the authors' harness gain, whose wheel armature is 0.01) gives 3.6 at dt 0.005: +-6 N m every substep,
+    131 W for four idle wheels. Measured with ``tools/wheel_step_response.py`` (README, "Wheel control")."""
+    wheel_ki: float = 2.0
+    """Wheel velocity-PID integral gain [N m/rad]: removes the steady error under a load torque (slopes, friction)
+    that the small kp alone would leave. ki 5 overshoots a loaded 0.5 m/s step by 25 %, ki 2 by 16 % (P alone 11 %),
+    with 0.6 % steady error after 2 s (README, "Wheel control")."""
+    wheel_kd: float = 0.0
+    """Wheel velocity-PID derivative gain [N m s^2/rad]; 0: any kd acts on a velocity difference (an acceleration)
+    and with the substep's explicit update destabilises the airborne loop first."""
+    wheel_i_limit: float = 2.5
+    """Anti-windup bound of the wheel-PID integral [rad]: ki * limit = 5 N m, under the 6 N m torque limit, so the
+    integral can hold a wheel against the ~2 N m scrub torque of skid-steer turning."""
+    check_wheel_stability: bool = True
+    """Refuse wheel gains whose airborne loop is unstable (kp dt / I >= 2). Off only to study that loop."""
+    joint_model: str = "asset"
+    """Passive model of the 16 actuated joints: ``asset`` (the USD's: armature 0.01 kg m^2 on the legs and 2.19e-3
+    on the wheels, no damping, no dry friction; ``tools/build_wheeled_go1.py`` says why) or ``authors`` (the authors'
+    MuJoCo robot: damping 0.01 N m s/rad, armature 0.01 kg m^2 and friction loss 0.2 N m on every joint,
+    ``constants.AUTHORS_JOINT_MODEL``), a second physics for sim-to-sim evaluation."""
+    nthread: int | None = None
+    """CPU threads for ``mujoco_cpu`` (default: all cores)."""
+    cuda_graph: bool = True
+    """Capture the decimation loop into a CUDA graph (``mujoco_warp`` on CUDA only)."""
+    contact_threshold: float = 1.0
+    """Normal-force magnitude above which a wheel counts as in contact [N]."""
+    solver_iterations: int = 100
+    """MuJoCo constraint-solver iterations (MuJoCo default)."""
+    ls_iterations: int = 50
+    """MuJoCo line-search iterations (MuJoCo default)."""
+    unstable_position_limit: float = 1.0e3
+    """A robot whose coordinate exceeds this magnitude [m or rad] counts as diverged (``Simulator.unstable``)."""
+    unstable_velocity_limit: float = 1.0e3
+    """A robot whose velocity exceeds this magnitude [m/s or rad/s] counts as diverged (wheels run below 50 rad/s)."""
+    contact_ke: float = 2.0e4
+    """``featherstone`` only: normal stiffness of the spring-damper ground contact [N/m]. With ~37 N per wheel it
+    penetrates ~2 mm; stiffer contacts need a smaller dt (explicit contact forces). See ``wqwarp.diff.rollout``."""
+    contact_kd: float = 300.0
+    """``featherstone`` only: normal contact damping [N s/m] (damping ratio ~0.5 for a quarter of the robot)."""
+    contact_kf: float = 100.0
+    """``featherstone`` only: slope of the regularised Coulomb friction below the slip limit [N s/m]; a wheel's
+    spin is stable under it for kf dt / (m + I / R^2) < 2, i.e. kf < ~240 at dt 0.005."""
+    contact_mu: float = 1.0
+    """``featherstone`` only: Coulomb friction coefficient [-] (the MuJoCo paths' default friction is 1.0 too)."""
+    njmax: int | None = None
+    """Constraint rows per world for ``mujoco_warp`` (default: Newton's estimate)."""
+    nconmax: int | None = None
+    """Contacts per world for ``mujoco_warp`` (default: Newton's estimate)."""
+
+    def resolved_backend(self) -> str:
+        if self.backend not in BACKENDS:
+            raise ValueError(f"unknown backend {self.backend!r}; choose one of {', '.join(BACKENDS)}")
+        if self.backend != "auto":
+            return self.backend
+        return "mujoco_cpu" if self.device == "cpu" else "mujoco_warp"
+
+    def validate(self) -> None:
+        if self.num_envs < 1:
+            raise ValueError(f"num_envs must be >= 1, got {self.num_envs}")
+        if not (self.dt > 0.0 and self.decimation >= 1):
+            raise ValueError(f"need dt > 0 and decimation >= 1, got dt={self.dt}, decimation={self.decimation}")
+        if min(self.wheel_kp, self.wheel_ki, self.wheel_kd, self.wheel_i_limit) < 0.0:
+            raise ValueError("wheel PID gains and integral bound must be >= 0")
+        margin = self.wheel_kp * self.dt / C.WHEEL_AIRBORNE_INERTIA
+        if self.check_wheel_stability and margin >= 2.0:
+            raise ValueError(
+                f"wheel_kp {self.wheel_kp} at dt {self.dt} makes an airborne wheel's speed loop unstable "
+                f"(kp dt / I = {margin:.2f} >= 2, I = {C.WHEEL_AIRBORNE_INERTIA:.2e} kg m^2): use "
+                f"wheel_kp < {2.0 * C.WHEEL_AIRBORNE_INERTIA / self.dt:.2f}"
+            )
+        if self.joint_model not in JOINT_MODELS:
+            raise ValueError(f"unknown joint_model {self.joint_model!r}; choose one of {', '.join(JOINT_MODELS)}")
+        self.resolved_backend()

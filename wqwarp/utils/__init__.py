@@ -1,0 +1,1 @@
+"""Small shared helpers: provenance of results, atomic writes, CPU threads."""

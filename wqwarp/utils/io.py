@@ -1,0 +1,44 @@
+"""Atomic writes: every file this project writes (checkpoints, exports, result JSON, figures, USD, logs' summaries)
+goes to a temporary file in the same folder and is renamed over its target, so a crash never leaves a truncated or
+half-overwritten file and a failure never corrupts what exists."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Callable, Iterator
+
+
+@contextlib.contextmanager
+def atomic_path(path: str) -> Iterator[str]:
+    """A temporary path beside ``path`` (same folder, same extension: some writers pick the format by it) to write
+    to inside the ``with`` block; renamed over ``path`` when the block ends without an exception, removed otherwise.
+
+    Example::
+
+        with atomic_path("runs/x/model_10.pt") as tmp:
+            torch.save(state, tmp)
+    """
+    folder = os.path.dirname(os.path.abspath(path))
+    base, ext = os.path.splitext(os.path.basename(path))
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{base}.", suffix=f".tmp{ext}")
+    os.close(fd)
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def write_atomic(path: str, write: Callable[[str], object]) -> None:
+    """Call ``write(tmp)`` on a temporary path beside ``path``, then rename it over ``path`` (:func:`atomic_path`)."""
+    with atomic_path(path) as tmp:
+        write(tmp)
+
+
+def write_text_atomic(path: str, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)

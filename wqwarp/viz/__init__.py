@@ -1,0 +1,1 @@
+"""Visualisation: time-sampled USD rollouts."""
