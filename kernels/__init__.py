@@ -3,3 +3,7 @@
 Each paper equation is one ``@wp.func``; kernels are thin loops over ``(world, item)`` that call them.
 No torch and no Newton objects live here.
 """
+
+from wqwarp import quiet_warp
+
+quiet_warp()

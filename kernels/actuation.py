@@ -65,60 +65,33 @@ def wheel_pid_torque(
     return wp.vec3(tau, i_new, e)
 
 
-@wp.func
-def actuate_robot(
-    world: int,
-    joint_q: wp.array2d(dtype=wp.float32),
-    joint_qd: wp.array2d(dtype=wp.float32),
-    coord_index: wp.array(dtype=wp.int32),
-    dof_index: wp.array(dtype=wp.int32),
-    leg_q_target: wp.array2d(dtype=wp.float32),
-    wheel_qd_target: wp.array2d(dtype=wp.float32),
-    leg_kp: float,
-    leg_kd: float,
-    wheel_kp: float,
-    wheel_ki: float,
-    wheel_kd: float,
-    wheel_i_limit: float,
-    torque_limit: wp.array(dtype=wp.float32),
-    motor_strength: wp.array2d(dtype=wp.float32),
-    dt: float,
-    wheel_integral_in: wp.array2d(dtype=wp.float32),
-    wheel_prev_error_in: wp.array2d(dtype=wp.float32),
-    wheel_integral_out: wp.array2d(dtype=wp.float32),
-    wheel_prev_error_out: wp.array2d(dtype=wp.float32),
-    joint_torque: wp.array2d(dtype=wp.float32),
-    joint_f: wp.array2d(dtype=wp.float32),
-):
-    """Robot ``world``: PD on the 12 leg joints, PID on the 4 wheels, strength scale, clip, scatter into joint_f.
-    The wheel PID state is read from ``*_in`` and written to ``*_out`` (the same arrays for an in-place update)."""
-    for j in range(NUM_ACTUATED):
-        limit = torque_limit[j]
-        q = joint_q[world, coord_index[j]]
-        qd = joint_qd[world, dof_index[j]]
-        ctrl = wp.float32(0.0)
-        if j < NUM_LEG_JOINTS:
-            ctrl = leg_pd_torque(leg_q_target[world, j], q, qd, leg_kp, leg_kd, limit)
-        else:
-            k = j - NUM_LEG_JOINTS
-            pid = wheel_pid_torque(
-                wheel_qd_target[world, k],
-                qd,
-                wheel_integral_in[world, k],
-                wheel_prev_error_in[world, k],
-                wheel_kp,
-                wheel_ki,
-                wheel_kd,
-                wheel_i_limit,
-                limit,
-                dt,
-            )
-            ctrl = pid[0]
-            wheel_integral_out[world, k] = pid[1]
-            wheel_prev_error_out[world, k] = pid[2]
-        tau = wp.clamp(motor_strength[world, j] * ctrl, -limit, limit)
-        joint_torque[world, j] = tau
-        joint_f[world, dof_index[j]] = tau
+@wp.struct
+class ActuationGains:
+    """Gains of the actuation kernel (``SimConfig``'s, one set for every robot)."""
+
+    leg_kp: float
+    """Leg PD stiffness [N m/rad]."""
+    leg_kd: float
+    """Leg PD damping [N m s/rad]."""
+    wheel_kp: float
+    """Wheel PID proportional gain [N m s/rad]."""
+    wheel_ki: float
+    """Wheel PID integral gain [N m/rad]."""
+    wheel_kd: float
+    """Wheel PID derivative gain [N m s^2/rad]."""
+    wheel_i_limit: float
+    """Bound of the wheel integral [rad]."""
+    dt: float
+    """Physics substep [s]."""
+
+
+def actuation_gains(*, leg_kp: float, leg_kd: float, wheel_kp: float, wheel_ki: float, wheel_kd: float,
+                    wheel_i_limit: float, dt: float) -> ActuationGains:  # fmt: skip
+    """An :class:`ActuationGains` from its fields (units there)."""
+    g = ActuationGains()
+    g.leg_kp, g.leg_kd, g.wheel_kp, g.wheel_ki = leg_kp, leg_kd, wheel_kp, wheel_ki
+    g.wheel_kd, g.wheel_i_limit, g.dt = wheel_kd, wheel_i_limit, dt
+    return g
 
 
 @wp.kernel
@@ -129,46 +102,9 @@ def apply_actuation(
     dof_index: wp.array(dtype=wp.int32),
     leg_q_target: wp.array2d(dtype=wp.float32),
     wheel_qd_target: wp.array2d(dtype=wp.float32),
-    leg_kp: float,
-    leg_kd: float,
-    wheel_kp: float,
-    wheel_ki: float,
-    wheel_kd: float,
-    wheel_i_limit: float,
+    gains: ActuationGains,
     torque_limit: wp.array(dtype=wp.float32),
     motor_strength: wp.array2d(dtype=wp.float32),
-    dt: float,
-    # state (read and written)
-    wheel_integral: wp.array2d(dtype=wp.float32),
-    wheel_prev_error: wp.array2d(dtype=wp.float32),
-    # outputs
-    joint_torque: wp.array2d(dtype=wp.float32),
-    joint_f: wp.array2d(dtype=wp.float32),
-):
-    """One thread per robot: :func:`actuate_robot` with the wheel PID state updated in place."""
-    world = wp.tid()
-    actuate_robot(world, joint_q, joint_qd, coord_index, dof_index, leg_q_target, wheel_qd_target, leg_kp, leg_kd,
-                  wheel_kp, wheel_ki, wheel_kd, wheel_i_limit, torque_limit, motor_strength, dt, wheel_integral,
-                  wheel_prev_error, wheel_integral, wheel_prev_error, joint_torque, joint_f)  # fmt: skip
-
-
-@wp.kernel
-def apply_actuation_taped(
-    joint_q: wp.array2d(dtype=wp.float32),
-    joint_qd: wp.array2d(dtype=wp.float32),
-    coord_index: wp.array(dtype=wp.int32),
-    dof_index: wp.array(dtype=wp.int32),
-    leg_q_target: wp.array2d(dtype=wp.float32),
-    wheel_qd_target: wp.array2d(dtype=wp.float32),
-    leg_kp: float,
-    leg_kd: float,
-    wheel_kp: float,
-    wheel_ki: float,
-    wheel_kd: float,
-    wheel_i_limit: float,
-    torque_limit: wp.array(dtype=wp.float32),
-    motor_strength: wp.array2d(dtype=wp.float32),
-    dt: float,
     wheel_integral_in: wp.array2d(dtype=wp.float32),
     wheel_prev_error_in: wp.array2d(dtype=wp.float32),
     # outputs
@@ -177,13 +113,30 @@ def apply_actuation_taped(
     joint_torque: wp.array2d(dtype=wp.float32),
     joint_f: wp.array2d(dtype=wp.float32),
 ):
-    """One thread per robot: :func:`actuate_robot` with the wheel PID state read from one pair of arrays and
-    written to another, so that no array is overwritten and ``wp.Tape`` can run the adjoint (differentiable
-    rollouts, ``wqwarp.diff.rollout``)."""
+    """One thread per robot: PD on the 12 leg joints, PID on the 4 wheels, strength scale, clip, scatter into joint_f.
+
+    The wheel PID state is read from ``*_in`` and written to ``*_out``. Passing the same arrays updates it in place
+    (the simulator); separate arrays overwrite nothing, so that ``wp.Tape`` can run the adjoint (differentiable
+    rollouts, ``wqwarp.diff.rollout``; in place, the adjoint would replay on the updated state)."""
     world = wp.tid()
-    actuate_robot(world, joint_q, joint_qd, coord_index, dof_index, leg_q_target, wheel_qd_target, leg_kp, leg_kd,
-                  wheel_kp, wheel_ki, wheel_kd, wheel_i_limit, torque_limit, motor_strength, dt, wheel_integral_in,
-                  wheel_prev_error_in, wheel_integral_out, wheel_prev_error_out, joint_torque, joint_f)  # fmt: skip
+    for j in range(NUM_ACTUATED):
+        limit = torque_limit[j]
+        q = joint_q[world, coord_index[j]]
+        qd = joint_qd[world, dof_index[j]]
+        ctrl = wp.float32(0.0)
+        if j < NUM_LEG_JOINTS:
+            ctrl = leg_pd_torque(leg_q_target[world, j], q, qd, gains.leg_kp, gains.leg_kd, limit)
+        else:
+            k = j - NUM_LEG_JOINTS
+            pid = wheel_pid_torque(wheel_qd_target[world, k], qd, wheel_integral_in[world, k],
+                                   wheel_prev_error_in[world, k], gains.wheel_kp, gains.wheel_ki, gains.wheel_kd,
+                                   gains.wheel_i_limit, limit, gains.dt)  # fmt: skip
+            ctrl = pid[0]
+            wheel_integral_out[world, k] = pid[1]
+            wheel_prev_error_out[world, k] = pid[2]
+        tau = wp.clamp(motor_strength[world, j] * ctrl, -limit, limit)
+        joint_torque[world, j] = tau
+        joint_f[world, dof_index[j]] = tau
 
 
 @wp.kernel
@@ -222,10 +175,12 @@ def launch_actuation(
     wheel_kd: float,
     wheel_i_limit: float,
     dt: float,
+    wheel_integral_out: wp.array | None = None,
+    wheel_prev_error_out: wp.array | None = None,
     device=None,
     record_cmd: bool = False,
 ):
-    """Compute and apply the actuated-joint torques of every robot for one physics substep.
+    """Compute and apply the actuated-joint torques of every robot for one physics substep (:func:`apply_actuation`).
 
     All arrays are float32; ``W`` = world_count. Flat Newton arrays (``model.joint_q`` etc.) can be passed as
     ``arr.reshape((W, per_world))``.
@@ -237,46 +192,32 @@ def launch_actuation(
         wheel_qd_target: (W, 4) wheel velocity targets [rad/s].
         torque_limit: (16,) torque limit per actuated joint [N m].
         motor_strength: (W, 16) multiplicative torque scale (domain randomisation) [-], applied after PD/PID.
-        wheel_integral: (W, 4) wheel PID integral state [rad], updated in place.
-        wheel_prev_error: (W, 4) wheel PID previous velocity error [rad/s], updated in place.
+        wheel_integral: (W, 4) wheel PID integral state [rad], read (and updated in place without ``*_out``).
+        wheel_prev_error: (W, 4) wheel PID previous velocity error [rad/s], likewise.
         joint_torque: (W, 16) output torques [N m].
         joint_f: (W, dofs_per_world) generalized forces; columns ``dof_index`` are written [N m],
             the others are left untouched.
-        leg_kp, leg_kd: leg PD gains [N m/rad], [N m s/rad].
-        wheel_kp, wheel_ki, wheel_kd: wheel PID gains [N m s/rad], [N m/rad], [N m s^2/rad].
-        wheel_i_limit: bound of the wheel integral [rad].
-        dt: physics substep [s].
         coord_index, dof_index: (16,) int32 column of each actuated joint (project order) in a world's
             ``joint_q`` / ``joint_qd`` row (``wqwarp.robot.asset.RobotLayout``).
+        leg_kp, leg_kd, wheel_kp, wheel_ki, wheel_kd, wheel_i_limit, dt: :class:`ActuationGains`.
+        wheel_integral_out, wheel_prev_error_out: (W, 4) where the updated PID state goes (default: in place), for
+            a taped rollout.
         device: Warp device to launch on (default: the arrays' device).
         record_cmd: return the prepared launch instead of running it (replay it with ``.launch()``).
     """
+    gains = actuation_gains(leg_kp=leg_kp, leg_kd=leg_kd, wheel_kp=wheel_kp, wheel_ki=wheel_ki, wheel_kd=wheel_kd,
+                            wheel_i_limit=wheel_i_limit, dt=dt)  # fmt: skip
+    i_out = wheel_integral if wheel_integral_out is None else wheel_integral_out
+    e_out = wheel_prev_error if wheel_prev_error_out is None else wheel_prev_error_out
     return wp.launch(
         apply_actuation,
         dim=joint_q.shape[0],
-        inputs=[
-            joint_q,
-            joint_qd,
-            coord_index,
-            dof_index,
-            leg_q_target,
-            wheel_qd_target,
-            leg_kp,
-            leg_kd,
-            wheel_kp,
-            wheel_ki,
-            wheel_kd,
-            wheel_i_limit,
-            torque_limit,
-            motor_strength,
-            dt,
-            wheel_integral,
-            wheel_prev_error,
-        ],
-        outputs=[joint_torque, joint_f],
+        inputs=[joint_q, joint_qd, coord_index, dof_index, leg_q_target, wheel_qd_target, gains, torque_limit,
+                motor_strength, wheel_integral, wheel_prev_error],
+        outputs=[i_out, e_out, joint_torque, joint_f],
         record_cmd=record_cmd,
         device=device or joint_q.device,
-    )
+    )  # fmt: skip
 
 
 def launch_reset_wheel_pid(env_ids: wp.array, wheel_integral: wp.array, wheel_prev_error: wp.array, device=None):

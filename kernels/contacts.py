@@ -9,6 +9,20 @@ from __future__ import annotations
 import warp as wp
 
 
+@wp.struct
+class ShapeSlots:
+    """Where a Newton shape's ground contact goes in the per-robot summaries (``wqwarp.sim.model.shape_slots``)."""
+
+    world: wp.array(dtype=wp.int32)
+    """(S,) robot (world) of each shape."""
+    wheel_slot: wp.array(dtype=wp.int32)
+    """(S,) wheel slot 0-3 of each shape, -1 if it is not a wheel."""
+    body_slot: wp.array(dtype=wp.int32)
+    """(S,) collision-body slot (``constants.COLLISION_BODY_NAMES``), -1 if none."""
+    ground_shape: int
+    """Index of the ground plane's shape."""
+
+
 @wp.func
 def ground_contact_shape(a: int, b: int, ground_shape: int) -> int:
     """The robot's shape in a contact between shapes ``a`` and ``b`` if the other one is the ground, else -1."""
@@ -23,19 +37,17 @@ def ground_contact_shape(a: int, b: int, ground_shape: int) -> int:
 def record_ground_contact(
     s: int,
     force: float,
-    shape_world: wp.array(dtype=wp.int32),
-    shape_wheel_slot: wp.array(dtype=wp.int32),
-    shape_body_slot: wp.array(dtype=wp.int32),
+    slots: ShapeSlots,
     wheel_force: wp.array2d(dtype=wp.float32),
     body_collision: wp.array2d(dtype=wp.int32),
 ):
     """Add ``force`` [N] to the wheel slot of robot shape ``s`` (if it is a wheel) and flag its collision-body slot
     (if it has one)."""
-    world = shape_world[s]
-    k = shape_wheel_slot[s]
+    world = slots.world[s]
+    k = slots.wheel_slot[s]
     if k >= 0:
         wp.atomic_add(wheel_force, world, k, force)
-    c = shape_body_slot[s]
+    c = slots.body_slot[s]
     if c >= 0:
         body_collision[world, c] = 1
 
@@ -46,10 +58,7 @@ def accumulate_newton_contacts(
     shape0: wp.array(dtype=wp.int32),
     shape1: wp.array(dtype=wp.int32),
     contact_f: wp.array(dtype=wp.spatial_vector),
-    shape_world: wp.array(dtype=wp.int32),
-    shape_wheel_slot: wp.array(dtype=wp.int32),
-    shape_body_slot: wp.array(dtype=wp.int32),
-    ground_shape: int,
+    slots: ShapeSlots,
     # outputs
     wheel_force: wp.array2d(dtype=wp.float32),
     body_collision: wp.array2d(dtype=wp.int32),
@@ -61,11 +70,11 @@ def accumulate_newton_contacts(
     i = wp.tid()
     if i >= contact_count[0]:
         return
-    s = ground_contact_shape(shape0[i], shape1[i], ground_shape)
+    s = ground_contact_shape(shape0[i], shape1[i], slots.ground_shape)
     if s < 0:
         return
     f = wp.length(wp.spatial_top(contact_f[i]))
-    record_ground_contact(s, f, shape_world, shape_wheel_slot, shape_body_slot, wheel_force, body_collision)
+    record_ground_contact(s, f, slots, wheel_force, body_collision)
 
 
 @wp.kernel
@@ -104,10 +113,7 @@ def accumulate_penalty_contacts(
     margin1: wp.array(dtype=wp.float32),
     body_q: wp.array(dtype=wp.transform),
     shape_body: wp.array(dtype=wp.int32),
-    shape_world: wp.array(dtype=wp.int32),
-    shape_wheel_slot: wp.array(dtype=wp.int32),
-    shape_body_slot: wp.array(dtype=wp.int32),
-    ground_shape: int,
+    slots: ShapeSlots,
     ke: float,
     # outputs
     wheel_force: wp.array2d(dtype=wp.float32),
@@ -122,7 +128,7 @@ def accumulate_penalty_contacts(
         return
     a = shape0[i]
     b = shape1[i]
-    s = ground_contact_shape(a, b, ground_shape)
+    s = ground_contact_shape(a, b, slots.ground_shape)
     if s < 0:
         return
     n = -normal[i]
@@ -134,8 +140,7 @@ def accumulate_penalty_contacts(
         pb = wp.transform_point(body_q[shape_body[b]], pb) + margin1[i] * n
     depth = -wp.dot(n, pa - pb)
     if depth > 0.0:
-        record_ground_contact(s, ke * depth, shape_world, shape_wheel_slot, shape_body_slot, wheel_force,
-                              body_collision)  # fmt: skip
+        record_ground_contact(s, ke * depth, slots, wheel_force, body_collision)
 
 
 @wp.kernel

@@ -1,4 +1,6 @@
-"""Conversions between MuJoCo's generalized coordinates and Newton's ``joint_q`` / ``joint_qd``.
+"""Robot state kernels: conversions between MuJoCo's generalized coordinates and Newton's ``joint_q`` / ``joint_qd``,
+the base frame computed once per step for every consumer (:func:`compute_base_frame`), indexed state writes and
+resets, the divergence check, and the base motion of the differentiable rollout.
 
 For a robot whose root is a free joint at the world origin, the two layouts differ only in the root:
     MuJoCo  qpos[0:7] = (p, q_wxyz);  qvel[0:3] = v of the body origin, world frame; qvel[3:6] = omega, body frame
@@ -96,6 +98,47 @@ def newton_state_to_mujoco(
         mj_state[world, b + 3 + k] = wp.float64(w_b[k])
     for k in range(6, nv):
         mj_state[world, b + k] = wp.float64(joint_qd[world, k])
+
+
+@wp.func
+def heading_yaw(rot: wp.quat) -> float:
+    """psi = atan2(2 (w z + x y), 1 - 2 (y^2 + z^2)) [rad]: the yaw (heading) of a base quaternion, xyzw order."""
+    return wp.atan2(2.0 * (rot[3] * rot[2] + rot[0] * rot[1]), 1.0 - 2.0 * (rot[1] * rot[1] + rot[2] * rot[2]))
+
+
+@wp.kernel
+def compute_base_frame(
+    joint_q: wp.array2d(dtype=wp.float32),
+    joint_qd: wp.array2d(dtype=wp.float32),
+    # outputs
+    base_lin_vel: wp.array2d(dtype=wp.float32),
+    base_ang_vel: wp.array2d(dtype=wp.float32),
+    projected_gravity: wp.array2d(dtype=wp.float32),
+    base_height: wp.array(dtype=wp.float32),
+    base_yaw: wp.array(dtype=wp.float32),
+):
+    """One thread per robot: the free base's state in its own frame, from Newton rows (position 0:3, quaternion
+    xyzw 3:7 of ``joint_q``; world-frame COM velocity 0:3 and angular velocity 3:6 of ``joint_qd``).
+
+    v_b = R^T v [m/s], w_b = R^T w [rad/s], g_b = R^T (0, 0, -1) [-] (N, 3) each; height p_z [m] and yaw
+    :func:`heading_yaw` [rad] (N,). R^T is ``wp.quat_rotate_inv`` of the quaternion as stored (not renormalised),
+    the rotation the reward kernel applies."""
+    i = wp.tid()
+    q = wp.quat(joint_q[i, 3], joint_q[i, 4], joint_q[i, 5], joint_q[i, 6])
+    v = wp.quat_rotate_inv(q, wp.vec3(joint_qd[i, 0], joint_qd[i, 1], joint_qd[i, 2]))
+    w = wp.quat_rotate_inv(q, wp.vec3(joint_qd[i, 3], joint_qd[i, 4], joint_qd[i, 5]))
+    g = wp.quat_rotate_inv(q, wp.vec3(0.0, 0.0, -1.0))
+    for k in range(3):
+        base_lin_vel[i, k] = v[k]
+        base_ang_vel[i, k] = w[k]
+        projected_gravity[i, k] = g[k]
+    base_height[i] = joint_q[i, 2]
+    base_yaw[i] = heading_yaw(q)
+
+
+BASE_FRAME_OUTPUTS = (("base_lin_vel", 3), ("base_ang_vel", 3), ("projected_gravity", 3), ("base_height", 0),
+                      ("base_yaw", 0))  # fmt: skip
+"""Names of :func:`compute_base_frame`'s outputs in order, with their width (0: a (N,) array)."""
 
 
 @wp.kernel

@@ -24,6 +24,17 @@ def device(request) -> str:
     return request.param
 
 
+def _cuda_params() -> list:
+    cuda = [d for d in test_devices() if d.startswith("cuda")]
+    return cuda or [pytest.param(None, marks=pytest.mark.skip(reason="needs CUDA (none available or chosen)"))]
+
+
+@pytest.fixture(scope="session", params=_cuda_params())
+def cuda_device(request) -> str:
+    """Each CUDA device among :func:`test_devices`, for the tests of the CUDA path only; they skip without one."""
+    return request.param
+
+
 def _save_untrained_checkpoint(path: str, cfg) -> str:
     """Write the checkpoint an untrained run of ``cfg`` (a ``wqwarp.rl.config.EnvConfig``) would save, as
     ``train/ppo_newton.py`` does (configuration, policy, estimator, predictor, layout); returns ``path``."""

@@ -2,25 +2,11 @@
 
 from __future__ import annotations
 
-import importlib.util
-import os
-
 import numpy as np
 import pytest
 
 from wqwarp.robot import asset as robot
 from wqwarp.robot import constants as C
-
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def _load_builder_script():
-    spec = importlib.util.spec_from_file_location(
-        "build_wheeled_go1", os.path.join(ROOT, "tools", "build_wheeled_go1.py")
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 @pytest.fixture(scope="module")
@@ -29,9 +15,10 @@ def model():
 
 
 def test_regenerating_the_asset_gives_the_same_bytes():
-    mod = _load_builder_script()
+    from wqwarp.cli.build_asset import render
+
     with open(C.WHEELED_GO1_USD, encoding="utf-8") as f:
-        assert f.read() == mod.render()
+        assert f.read() == render()
 
 
 def test_sixteen_actuated_joints_in_documented_order(model):

@@ -5,7 +5,7 @@ or missing robot asset, a truncated or foreign checkpoint, an unwritable output.
 from __future__ import annotations
 
 import contextlib
-import importlib.util
+import importlib
 import io
 import os
 import sys
@@ -14,14 +14,12 @@ import pytest
 import torch
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)  # train/ and tools/ import as modules from the repository root
 
 
 def _script(rel: str):
-    spec = importlib.util.spec_from_file_location(rel.replace("/", "_")[:-3], os.path.join(ROOT, rel))
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses defined in the script look their module up
-    spec.loader.exec_module(mod)
-    return mod
+    """The module of an entry point ``train/x.py`` or ``tools/studies/y.py``, imported by name (its ``main``)."""
+    return importlib.import_module(rel[: -len(".py")].replace("/", "."))
 
 
 def _exit_code(main, argv) -> tuple[int, str]:
@@ -36,7 +34,7 @@ def _exit_code(main, argv) -> tuple[int, str]:
 
 @pytest.fixture(scope="module")
 def bad_files(tmp_path_factory, save_checkpoint):
-    from wqwarp.rl.config import make_preset
+    from wqwarp.rl.presets import make_preset
 
     d = tmp_path_factory.mktemp("bad")
     cfg = make_preset("ours")
@@ -101,8 +99,9 @@ def test_export_usd_to_an_unwritable_place_and_from_a_broken_checkpoint(bad_file
     assert code == 2 and "truncated.pt" in err and not out.exists(), err
 
 
-SCRIPTS = sorted([f"train/{f}" for f in os.listdir(os.path.join(ROOT, "train")) if f.endswith(".py")]
-                 + [f"tools/{f}" for f in os.listdir(os.path.join(ROOT, "tools")) if f.endswith(".py")])  # fmt: skip
+SCRIPTS = sorted(f"{folder}/{f}" for folder in ("train", "tools", "tools/studies")
+                 for f in os.listdir(os.path.join(ROOT, folder))
+                 if f.endswith(".py") and f != "__init__.py")  # fmt: skip
 
 
 @pytest.mark.parametrize("script", SCRIPTS)

@@ -21,8 +21,9 @@ CASES = (("ours", 5), ("baseline", 7))
 
 
 def first_iteration(preset: str, seed: int) -> dict[str, np.ndarray]:
-    from wqwarp.rl.config import TrainConfig, make_preset
+    from wqwarp.rl.config import TrainConfig
     from wqwarp.rl.env import WheeledGo1Env
+    from wqwarp.rl.presets import make_preset
     from wqwarp.rl.runner import WqRunner
 
     cfg = make_preset(preset)

@@ -3,14 +3,10 @@
 from __future__ import annotations
 
 import json
-import os
-import sys
 
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
-
-from tools import bench_train, time_to_skill  # noqa: E402
+from wqwarp.cli import bench_train, time_to_skill
 
 
 def test_bench_train_json_rates_and_breakdown(tmp_path):

@@ -1,21 +1,19 @@
-"""tools/compare_physics.py: the trajectory summary (means after the settling second, RMS difference)."""
+"""tools/studies/compare_physics.py: the trajectory summary (means after the settling second, RMS difference)."""
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import os
+import sys
 
 import numpy as np
 import pytest
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # tools/ imports from the root
 
 
 def _tool():
-    spec = importlib.util.spec_from_file_location("compare_physics", os.path.join(ROOT, "tools", "compare_physics.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return importlib.import_module("tools.studies.compare_physics")
 
 
 def test_summary_means_and_rms_after_the_settling_second():

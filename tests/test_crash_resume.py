@@ -14,8 +14,9 @@ import time
 
 import torch
 
-from wqwarp.rl.config import TrainConfig, make_preset
+from wqwarp.rl.config import TrainConfig
 from wqwarp.rl.env import WheeledGo1Env
+from wqwarp.rl.presets import make_preset
 from wqwarp.rl.runner import WqRunner
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -50,7 +51,7 @@ def test_sigkill_between_checkpoints_loses_at_most_one_interval_and_resumes(tmp_
     assert ckpts[:3] == [0, 3, 6]
     for k in ckpts:  # every checkpoint is whole (written to a temporary file, then renamed)
         ckpt = torch.load(log / f"model_{k}.pt", weights_only=False)
-        assert ckpt["iter"] == k and "estimator" in ckpt["infos"] and "rng" in ckpt["infos"]
+        assert ckpt["iter"] == k and "estimator_state_dict" in ckpt and "rng" in ckpt["infos"]
     assert json.loads((log / "config.json").read_text())["args"]["save_interval"] == 3
     last = ckpts[-1]
     assert _iterations_logged(log) - 1 - last <= 3  # at most one checkpoint interval of work lost

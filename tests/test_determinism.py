@@ -10,9 +10,10 @@ import io
 import torch
 
 from wqwarp.eval.loading import make_policy_runner
-from wqwarp.eval.protocols import run_task
-from wqwarp.rl.config import TrainConfig, make_preset
+from wqwarp.eval.tracking import run_task
+from wqwarp.rl.config import TrainConfig
 from wqwarp.rl.env import WheeledGo1Env
+from wqwarp.rl.presets import make_preset
 from wqwarp.rl.runner import WqRunner
 
 

@@ -7,12 +7,12 @@ import contextlib
 import io
 import sys
 
-import pytest
 import torch
 import warp as wp
 
-from wqwarp.rl.config import TrainConfig, make_preset
+from wqwarp.rl.config import TrainConfig
 from wqwarp.rl.env import WheeledGo1Env
+from wqwarp.rl.presets import make_preset
 from wqwarp.rl.runner import WqRunner
 
 N = 4
@@ -109,16 +109,15 @@ def test_two_training_iterations_on_the_mujoco_warp_backend(tmp_path):
         runner.learn(2)
     assert runner.current_learning_iteration == 1
     assert (tmp_path / "model_0.pt").is_file()
-    assert torch.isfinite(torch.as_tensor(runner.last_aux["estimator"]))
+    assert torch.isfinite(torch.as_tensor(runner.alg.aux_losses["estimator"]))
     for p in runner.alg.get_policy().parameters():
         assert torch.isfinite(p).all()
 
 
-@pytest.mark.skipif(not wp.is_cuda_available(), reason="needs CUDA")
-def test_cuda_env_steps_without_host_copies(monkeypatch):
+def test_cuda_env_steps_without_host_copies(monkeypatch, cuda_device):
     cfg = make_preset("ours")
     cfg.sim.num_envs = N
-    cfg.sim.device = "cuda:0"
+    cfg.sim.device = cuda_device
     cfg.domain_rand.push_interval = 0.1
     env = WheeledGo1Env(cfg)
     for _ in range(3):

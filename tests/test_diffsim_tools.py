@@ -2,26 +2,22 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
+import sys
 
 import pytest
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # tools/ imports from the root
 
-
-def _tool(name: str):
-    spec = importlib.util.spec_from_file_location(name, os.path.join(ROOT, "tools", f"{name}.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+from tools.studies import compare_physics, gradient_study  # noqa: E402
+from wqwarp.cli import optimize_gait  # noqa: E402
 
 
 def test_gradient_study_short_horizon_agrees(tmp_path):
     out = tmp_path / "g.json"
-    assert _tool("gradient_study").main(["--dts", "0.005", "--horizons", "0.02", "--warmup", "0.1", "--json",
-                                         str(out)]) == 0  # fmt: skip
+    assert gradient_study.main(["--dts", "0.005", "--horizons", "0.02", "--warmup", "0.1", "--json",
+                                str(out)]) == 0  # fmt: skip
     p = json.loads(out.read_text())["points"][0]
     assert p["substeps"] == 4
     for key in ("p_cost_smooth", "vx_grad"):
@@ -35,7 +31,7 @@ def test_optimize_gait_writes_its_iterations(tmp_path):
     out = tmp_path / "o.json"
     argv = ["--gait", "trotting", "--vx", "0.3", "--dt", "0.005", "--horizon", "0.04", "--warmup", "0.1", "--windows",
             "2", "--iterations", "1", "--no-eval", "--json", str(out)]  # fmt: skip
-    assert _tool("optimize_gait").main(argv) == 0
+    assert optimize_gait.main(argv) == 0
     rep = json.loads(out.read_text())
     hist = rep["tuning"]["history"]
     assert len(hist) == 2 and hist[0]["params"] != hist[1]["params"]
@@ -46,7 +42,7 @@ def test_optimize_gait_writes_its_iterations(tmp_path):
 def test_compare_physics_on_a_short_run(tmp_path, capsys):
     out = tmp_path / "c.json"
     argv = ["--scenarios", "standing", "--seconds", "1.2", "--dt", "0.005", "--decimation", "4", "--json", str(out)]
-    assert _tool("compare_physics").main(argv) == 0
+    assert compare_physics.main(argv) == 0
     rep = json.loads(out.read_text())
     summary = rep["scenarios"]["standing"]["summary"]
     assert summary["height"]["mean_mujoco_cpu"] == pytest.approx(0.27, abs=0.01)

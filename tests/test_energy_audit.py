@@ -1,9 +1,8 @@
-"""tools/energy_audit.py: group powers add up, driving costs wheel power, airborne wheels settle quietly, the JSON
-holds the documented fields, and bad input exits 2 without writing."""
+"""wqwarp.cli.energy_audit (tools/energy_audit.py): group powers add up, driving costs wheel power, airborne wheels
+settle quietly, the JSON holds the documented fields, and bad input exits 2 without writing."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import subprocess
@@ -11,12 +10,10 @@ import sys
 
 import pytest
 
+from wqwarp.cli import energy_audit
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TOOL = os.path.join(ROOT, "tools", "energy_audit.py")
-
-_spec = importlib.util.spec_from_file_location("energy_audit", TOOL)
-energy_audit = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(energy_audit)
 
 SHORT = {"warmup": 0.3, "seconds": 0.5, "num_envs": 1}
 
@@ -123,7 +120,7 @@ def test_default_timestep_keeps_the_energy_picture(tmp_path):
 
 
 def test_authors_model_comparison_refuses_a_missing_model(tmp_path):
-    tool = os.path.join(ROOT, "tools", "compare_authors_model.py")
+    tool = os.path.join(ROOT, "tools", "studies", "compare_authors_model.py")
     out = tmp_path / "x.json"
     r = subprocess.run([sys.executable, tool, "--mjcf", str(tmp_path / "nope.xml"), "--json", str(out)],
                        capture_output=True, text=True)  # fmt: skip

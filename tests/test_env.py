@@ -7,8 +7,10 @@ import pytest
 import torch
 import warp as wp
 
-from wqwarp.rl.config import PRESETS, REWARD_TERMS, RewardConfig, make_preset
-from wqwarp.rl.env import PRIVILEGED_DIM, WheeledGo1Env, decode_observation, observation_layout
+from wqwarp.rl.config import REWARD_TERMS, RewardConfig
+from wqwarp.rl.env import WheeledGo1Env
+from wqwarp.rl.observations import decode_observation, observation_layout
+from wqwarp.rl.presets import PRESETS, make_preset
 
 N = 4
 
@@ -32,7 +34,8 @@ def test_shapes_and_groups(env):
     assert set(obs.keys()) == {"policy", "privileged"}
     assert env.num_actions == 20
     assert obs["policy"].shape == (N, 3 + 3 + 12 + 16 + 18 + 3 + 3 + 2 * 20)
-    assert obs["privileged"].shape == (N, PRIVILEGED_DIM)
+    assert obs["privileged"].shape == (N, 3 + 1 + 1 + 1 + 1 + 4 + 2 + 3) == (N, env.privileged_dim)
+    assert env.estimate_index == 3 + 3 + 12 + 16 + 18 and env.proprio_dim == env.num_obs - 3
     o, r, d, extras = env.step(torch.zeros(N, env.num_actions))
     assert r.shape == (N,) and d.shape == (N,) and extras["time_outs"].shape == (N,)
 
@@ -79,6 +82,18 @@ def test_observation_decodes_into_named_parts(env):
     env.cfg.obs.noise = True
     with pytest.raises(ValueError):
         decode_observation(obs["policy"][:, :-1], env.num_actions)
+
+
+def test_the_envs_mirror_is_an_involution_that_flips_lateral_commands(env):
+    obs = env.get_observations()
+    mirrored = env.mirror_observations(obs)
+    for group in ("policy", "privileged"):
+        torch.testing.assert_close(env.mirror_observations(mirrored)[group], obs[group], rtol=0, atol=0)
+    a = torch.randn(N, env.num_actions)
+    torch.testing.assert_close(env.mirror_actions(env.mirror_actions(a)), a, rtol=0, atol=0)
+    cmd = decode_observation(obs["policy"], env.num_actions)["command"]
+    got = decode_observation(mirrored["policy"], env.num_actions)["command"]
+    torch.testing.assert_close(got, cmd * torch.tensor([1.0, -1.0, -1.0]))
 
 
 def test_random_actions_give_no_nan_and_log_every_nonzero_term():
@@ -193,7 +208,8 @@ def test_evaluation_builds_the_env_from_the_checkpoints_own_configuration(tmp_pa
     assert cfg.sim.num_envs == 2 and cfg.domain_rand.enabled  # the trained config is not touched
     pr = make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=2, dt=0.005)
     assert (pr.env.cfg.sim.dt, pr.env.cfg.sim.decimation) == (0.005, 4)  # a named override keeps 50 Hz
-    from wqwarp.eval.protocols import PUSH_TASKS, run_task
+    from wqwarp.eval.metrics import PUSH_TASKS
+    from wqwarp.eval.tracking import run_task
 
     res = run_task(pr, "vy", seconds=2.2, settle=0.2)
     assert res.command_range == [-0.7, 0.7] and not res.outside_training_range
@@ -234,3 +250,18 @@ def test_pushes_are_velocity_impulses_along_the_trunk_axes(device):
     c, s = torch.cos(yaw), torch.sin(yaw)
     world = torch.stack([c * dv[:, 0] - s * dv[:, 1], s * dv[:, 0] + c * dv[:, 1]], 1)
     assert torch.allclose(env.tv["joint_qd"][:, :2] - before, world, atol=1e-5)
+
+
+def test_command_sampling_and_the_push_rotation():
+    from wqwarp.rl.commands import sample_commands
+    from wqwarp.rl.config import CommandConfig
+    from wqwarp.rl.events import push_to_world
+
+    c = CommandConfig(single_axis_prob=1.0, zero_prob=0.0)
+    cmd = sample_commands(c, 200, torch.Generator().manual_seed(0), "cpu")
+    assert ((cmd != 0).sum(1) <= 1).all() and (cmd[:, 0].abs() <= 1.5).all() and (cmd[:, 1].abs() <= 0.7).all()
+    zero = sample_commands(CommandConfig(single_axis_prob=0.0, zero_prob=1.0), 10, torch.Generator(), "cpu")
+    assert (zero == 0).all()
+    yaw = torch.tensor([0.0, np.pi / 2])  # trunk along world x, then along world y
+    world = push_to_world(yaw, torch.tensor([[1.0, 0.5], [1.0, 0.5]]))
+    torch.testing.assert_close(world, torch.tensor([[1.0, 0.5], [-0.5, 1.0]]))

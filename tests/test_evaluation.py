@@ -1,13 +1,17 @@
-"""The evaluation's metric arithmetic on scripted trajectories, and the sim-to-sim physics configurations."""
+"""The evaluation's metric arithmetic on scripted trajectories, the sim-to-sim physics configurations, and the
+protocol registry (options, command lines, an env left as found)."""
 
 from __future__ import annotations
+
+import dataclasses
+import shlex
 
 import numpy as np
 import pytest
 import torch
 
-from wqwarp.eval.protocols import POWER_KEYS, TaskMetrics
-from wqwarp.rl.config import make_preset
+from wqwarp.eval.metrics import POWER_KEYS, TaskMetrics
+from wqwarp.rl.presets import make_preset
 
 
 def _power(**watts) -> dict:
@@ -50,7 +54,7 @@ def test_task_metrics_on_a_scripted_trajectory():
 
 
 def test_sim_to_sim_physics_are_named_overrides_of_the_trained_configuration():
-    from wqwarp.eval.loading import evaluation_config
+    from wqwarp.eval.physics import evaluation_config
     from wqwarp.rl.env import WheeledGo1Env
     from wqwarp.robot.constants import AUTHORS_GROUND_FRICTION, AUTHORS_JOINT_MODEL
 
@@ -74,7 +78,7 @@ def test_sim_to_sim_physics_are_named_overrides_of_the_trained_configuration():
     np.testing.assert_allclose(m.dof_armature[hinge], AUTHORS_JOINT_MODEL["armature"])
     np.testing.assert_allclose(m.dof_frictionloss[hinge], AUTHORS_JOINT_MODEL["friction"])
     assert np.all(m.dof_damping[:6] == 0) and np.all(m.dof_frictionloss[:6] == 0)
-    np.testing.assert_allclose([mm.geom_friction[:, 0] for mm in env.sim._mj_models], AUTHORS_GROUND_FRICTION)
+    np.testing.assert_allclose([mm.geom_friction[:, 0] for mm in env.sim.physics.mj_models], AUTHORS_GROUND_FRICTION)
     assert torch.allclose(env.friction, torch.full((2,), AUTHORS_GROUND_FRICTION))  # what the critic is told
     base = WheeledGo1Env(evaluation_config(trained, 1))
     mb = base.sim.mj_model
@@ -86,7 +90,7 @@ def test_run_task_pushes_on_schedule_and_holds_its_commands(tmp_path, save_check
     """Pushes every ``push_interval`` (observed through the env's recorded impulse), velocity impulses no larger than
     the maximum, and the task's commands unchanged throughout."""
     from wqwarp.eval.loading import make_policy_runner
-    from wqwarp.eval.protocols import run_task, spread_commands
+    from wqwarp.eval.tracking import run_task, spread_commands
 
     cfg = make_preset("no_predictor")
     cfg.sim.num_envs = 1
@@ -113,7 +117,7 @@ def test_a_loaded_checkpoint_starts_the_same_whatever_torch_drew_before(tmp_path
     """The env observes and selects gaits with the networks it is built with; after a checkpoint is loaded the first
     observation and the gait each robot is reset into must come from the loaded ones, not from torch's global RNG."""
     from wqwarp.eval.loading import make_policy_runner
-    from wqwarp.eval.protocols import start_rollout
+    from wqwarp.eval.rollout import start_rollout
 
     cfg = make_preset("ours")
     cfg.sim.num_envs = 2
@@ -127,3 +131,104 @@ def test_a_loaded_checkpoint_starts_the_same_whatever_torch_drew_before(tmp_path
         first.append((obs["policy"].clone(), pr.env.requested_gait().clone()))
     for o, g in first[1:]:
         assert torch.equal(o, first[0][0]) and torch.equal(g, first[0][1])
+
+
+def _settings(env) -> dict:
+    """What an evaluation protocol may change on an env and must give back."""
+    sel = env.gait_selector
+    return {"collect": env.collect_training_data, "max_episode_length": env.max_episode_length,
+            "push_interval_steps": env.push_interval_steps, "held": env.held_commands,
+            "forced_gait": sel.forced_gait, "steps": env.common_step_counter,
+            "rng": [env.gen.get_state().tolist(), sel.gen.get_state().tolist()],
+            "requested": env.requested_gait().tolist()}  # fmt: skip
+
+
+def test_protocols_run_back_to_back_on_one_env_give_what_a_fresh_env_gives(tmp_path, save_checkpoint):
+    """A protocol leaves the env as it found it (held commands, push schedule, episode length, forced gait, random
+    generators): the second of two protocols on one runner equals the same protocol on a fresh runner."""
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.timeline import parse_segments, run_timeline
+    from wqwarp.eval.tracking import run_task
+
+    cfg = make_preset("ours")
+    cfg.sim.num_envs = 2
+    path = str(save_checkpoint(tmp_path / "model_0.pt", cfg))
+    used = make_policy_runner(path, None, num_envs=3, seed=2)
+    before = _settings(used.env)
+    first = run_task(used, "vy", seconds=1.0, settle=0.2, max_push=0.5, push_interval=0.4, forced_gait=1)
+    assert first.gait_usage["trotting"] > 0.5  # the forced gait ran
+    assert _settings(used.env) == before
+    run_timeline(used, parse_segments("0.3,0,0:0.3;0,0,0.4:0.3"))
+    assert _settings(used.env) == before
+
+    def second(runner):
+        return dataclasses.asdict(run_task(runner, "vx", seconds=1.0, settle=0.2, max_push=0.3, push_interval=0.5))
+
+    assert second(used) == second(make_policy_runner(path, None, num_envs=3, seed=2))
+
+
+@pytest.mark.parametrize("name", ["tracking", "push", "sim2sim", "timeline", "energymap"])
+def test_each_protocol_records_a_command_line_that_gives_back_its_options(name):
+    from wqwarp.eval.options import from_namespace
+    from wqwarp.eval.protocols import PROTOCOLS, build_parser, equivalent_command, make_options
+
+    extra = {"segments": "0,0,0:0.5;0.8,0,0:0.5"} if name == "timeline" else {}  # a shell would split at ';'
+    opts = make_options(name, checkpoint="runs/x/model_9.pt", seed=3, json="r.json", **extra)
+    opts.validate()
+    cmd = shlex.split(equivalent_command(name, opts))
+    assert cmd[:3] == ["train/evaluate.py", "--protocol", name] and "--seed" in cmd
+    ns = build_parser(name, "", "", choose=True).parse_args(cmd[1:])
+    assert from_namespace(PROTOCOLS[name].options, ns) == opts
+
+
+def test_protocol_options_are_checked_before_any_work(tmp_path):
+    from wqwarp.eval.protocols import make_options, run_protocol
+
+    for name, bad, match in (("tracking", {"tasks": "jump"}, "unknown task"),
+                             ("push", {"push_levels": "0,0.5"}, "push-levels"),
+                             ("sim2sim", {"physics": "bullet"}, "--physics"),
+                             ("timeline", {"segments": "0.5,0:1"}, "bad segment"),
+                             ("energymap", {"grid": 1}, "--grid"),
+                             ("tracking", {"json": str(tmp_path / "no" / "r.json")}, "does not exist")):  # fmt: skip
+        with pytest.raises(ValueError, match=match):
+            run_protocol(name, make_options(name, checkpoint=str(tmp_path / "never_read.pt"), **bad))
+    with pytest.raises(ValueError, match="unknown protocol"):
+        make_options("jump", checkpoint="x")
+
+
+def test_a_new_protocol_is_one_function_and_one_registry_entry(tmp_path, monkeypatch):
+    """Registered once, a protocol is on ``train/evaluate.py --protocol`` with its options, and its result is
+    written with the command line that made it."""
+    import json
+    from dataclasses import dataclass
+
+    from wqwarp.eval import protocols
+    from wqwarp.eval.options import ProtocolOptions, option
+
+    @dataclass(kw_only=True)
+    class HopOptions(ProtocolOptions):
+        hops: int = option(2, help="hops")
+
+    def hop(opts, log):
+        print(f"{opts.hops} hops", file=log)
+        return {"hops": opts.hops, "seed": opts.seed}
+
+    monkeypatch.setitem(protocols.PROTOCOLS, "hop", protocols.Protocol("hop", hop, HopOptions, "hops in place"))
+    out = tmp_path / "hop.json"
+    assert protocols.main(["--protocol", "hop", "--checkpoint", "m.pt", "--hops", "5", "--json", str(out)]) == 0
+    d = json.loads(out.read_text())
+    assert d["hops"] == 5 and d["seed"] == 0 and "--hops 5" in d["command"] and d["git"]
+
+
+def test_physics_variants_are_one_registry_whose_overrides_are_recorded():
+    """Result files record each variant's overrides (``"overrides"`` of the sim-to-sim results): derived from the
+    registry, the set fields only."""
+    from wqwarp.eval.physics import PHYSICS, PHYSICS_VARIANTS, physics_variant
+    from wqwarp.robot.constants import AUTHORS_GROUND_FRICTION
+
+    assert list(PHYSICS) == list(PHYSICS_VARIANTS) == ["train", "dt0.001", "authors", "authors_dt0.001"]
+    assert PHYSICS["train"] == {} and PHYSICS["dt0.001"] == {"dt": 0.001}
+    assert PHYSICS["authors_dt0.001"] == {"dt": 0.001, "joint_model": "authors", "friction": AUTHORS_GROUND_FRICTION}
+    assert all(v.doc for v in PHYSICS_VARIANTS.values())
+    with pytest.raises(ValueError, match="unknown physics 'bullet'; choose from train, dt0.001"):
+        physics_variant("bullet")

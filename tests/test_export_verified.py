@@ -1,5 +1,6 @@
-"""The exported onboard policy (TorchScript and ONNX run with onnxruntime) computes what the runner's inference
-policy, estimator and power predictor compute, on real observation histories of a trained-for-2-iterations run."""
+"""The exported onboard policy (the ``torch.export`` program, and ONNX run with onnxruntime) computes what the
+runner's inference policy, estimator and power predictor compute, on real observation histories of a
+trained-for-2-iterations run."""
 
 from __future__ import annotations
 
@@ -10,9 +11,11 @@ import numpy as np
 import pytest
 import torch
 
-from wqwarp.rl.config import TrainConfig, make_preset
+from wqwarp.rl.config import TrainConfig
 from wqwarp.rl.env import WheeledGo1Env
-from wqwarp.rl.runner import WqRunner, export_onboard_policy
+from wqwarp.rl.export import export_onboard_policy
+from wqwarp.rl.presets import make_preset
+from wqwarp.rl.runner import WqRunner
 
 ort = pytest.importorskip("onnxruntime")
 
@@ -27,7 +30,7 @@ def test_exported_policy_matches_the_runner_on_real_histories(preset, tmp_path):
         runner.learn(2)  # normalisers, estimator and predictor move away from their initialisation
     paths = export_onboard_policy(runner, str(tmp_path))
     policy = runner.get_inference_policy("cpu")
-    scripted = torch.jit.load(paths["torchscript"])
+    program = torch.export.load(paths["torch_export"]).module()
     session = ort.InferenceSession(paths["onnx"], providers=["CPUExecutionProvider"])
     obs = env.get_observations()
     checked = 0
@@ -38,7 +41,7 @@ def test_exported_policy_matches_the_runner_on_real_histories(preset, tmp_path):
             history = env.history.clone()
             assert history.abs().sum(dim=(1, 2)).min() > 0  # no robot has an empty (zero) history
             with torch.inference_mode():
-                ts = scripted(history)
+                ts = program(history)
             ox = session.run(None, {"history": history.numpy()})
             ts_actions = ts[0] if isinstance(ts, tuple) else ts
             torch.testing.assert_close(ts_actions, actions, atol=1e-5, rtol=0)

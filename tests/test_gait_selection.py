@@ -8,7 +8,7 @@ import json
 import pytest
 import torch
 
-from wqwarp.rl.config import PredictorConfig, make_preset
+from wqwarp.rl.config import PredictorConfig
 from wqwarp.rl.gait_selection import (
     COMMAND_TYPES,
     PowerPredictor,
@@ -18,6 +18,7 @@ from wqwarp.rl.gait_selection import (
     command_type,
     gait_probabilities,
 )
+from wqwarp.rl.presets import make_preset
 
 GAITS = ("driving", "trotting", "walking")
 
@@ -202,7 +203,8 @@ def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(pr
     import io
 
     from wqwarp.rl.config import TrainConfig
-    from wqwarp.rl.runner import WqRunner, export_onboard_policy
+    from wqwarp.rl.export import export_onboard_policy
+    from wqwarp.rl.runner import WqRunner
 
     env = _env(preset, 8)
     assert env.cfg.gait.selection == "predictive"
@@ -212,9 +214,9 @@ def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(pr
         runner = WqRunner(env, tcfg.rsl_rl_dict(), log_dir=str(tmp_path), device="cpu")
         runner.learn(2)
     sel = env.gait_selector
-    assert sel.windows > 0 and sel.iteration == 2 and "predictor" in runner.last_aux
+    assert sel.windows > 0 and sel.iteration == 2 and "predictor" in runner.alg.aux_losses
     assert not env.collect_training_data  # learning is over: the env stores nothing any more
-    scalars = runner.last_gait_scalars
+    scalars = runner.logger.metrics  # the iteration's means, as written to metrics.jsonl
     assert scalars["Gait/temperature"] == pytest.approx(sel.schedule(1))
     assert sum(scalars[f"Gait/usage_{g}"] for g in GAITS) == pytest.approx(1.0)
     runner.logger.writer.flush()
@@ -229,7 +231,7 @@ def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(pr
     assert logged["Gait/temperature"] == pytest.approx(scalars["Gait/temperature"])
     assert "Predictor/loss" in logged and any(k.startswith("Predictor/rel_error_") for k in logged)
     ckpt = torch.load(tmp_path / "model_1.pt", weights_only=False)
-    state = ckpt["infos"]["gait_selector"]
+    state = ckpt["gait_selector_state_dict"]
     assert state["name"] == "predictive" and state["iteration"] == 2
 
     env2 = _env(preset, 8)
@@ -242,7 +244,7 @@ def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(pr
 
     # The export returns the actions and each gait's predicted power; its json states the argmin rule.
     paths = export_onboard_policy(runner2, str(tmp_path / "export"))
-    policy = torch.jit.load(paths["torchscript"])
+    policy = torch.export.load(paths["torch_export"]).module()
     meta = json.loads(open(paths["json"]).read())
     actions, power = policy(torch.zeros(3, meta["history_length"], meta["proprio_dim"]))
     assert actions.shape == (3, 20) and power.shape == (3, 3) and torch.isfinite(power).all()
@@ -272,9 +274,10 @@ def test_estimator_and_predictor_do_not_change_during_evaluation_playback_or_exp
     import io
 
     from wqwarp.eval.loading import make_policy_runner
-    from wqwarp.eval.protocols import run_task
+    from wqwarp.eval.tracking import run_task
     from wqwarp.rl.config import TrainConfig
-    from wqwarp.rl.runner import WqRunner, export_onboard_policy
+    from wqwarp.rl.export import export_onboard_policy
+    from wqwarp.rl.runner import WqRunner
 
     env = _env("ours", 8)
     with contextlib.redirect_stdout(io.StringIO()):
@@ -327,7 +330,7 @@ def test_selection_switches_only_when_no_leg_of_the_running_gait_swings():
 def _sync_worker(rank: int, world: int, port: int, out_dir: str) -> None:
     import torch.distributed as dist
 
-    from wqwarp.rl.runner import _sync_module
+    from wqwarp.rl.algorithm import sync_module as _sync_module
 
     dist.init_process_group("gloo", init_method=f"tcp://127.0.0.1:{port}", rank=rank, world_size=world)
     torch.manual_seed(rank)  # different initial weights per rank

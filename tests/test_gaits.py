@@ -1,4 +1,5 @@
-"""Gait library (wqwarp/gaits.py): Table I data, lookup, Warp arrays and the phase patterns."""
+"""Gait library (wqwarp/control/gaits.py): Table I data, lookup, Warp arrays, the phase patterns, and the library as
+configuration (checkpoints, tuned gaits)."""
 
 import dataclasses
 
@@ -6,9 +7,21 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp.control.gaits import GAIT_LIBRARY, GAIT_NAMES, Gait, gait_index, gait_library_arrays
+from wqwarp.control.gaits import (
+    GAIT_LIBRARY,
+    GAIT_NAMES,
+    TABLE_I,
+    Gait,
+    gait_index,
+    gait_library_arrays,
+    is_mirror_symmetric,
+    load_tuned_gait,
+    mirror_offsets,
+    with_gait,
+)
+from wqwarp.rl.config import EnvConfig, GaitConfig, env_config_from_dict, to_dict
 
-DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+TUNED = "docs/studies/diffsim/optimize_trotting_0.3.json"
 
 
 def _in_swing(gait: Gait, t: np.ndarray) -> np.ndarray:
@@ -63,7 +76,6 @@ def test_every_gait_has_an_all_stance_window():
         assert (~_in_swing(g, np.linspace(0.0, 1.0, 20001)).any(axis=1)).any(), g.name
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_gait_library_arrays(device):
     arrays = gait_library_arrays(device)
     assert arrays.num_gaits == len(GAIT_LIBRARY)
@@ -79,3 +91,48 @@ def test_adding_a_gait_is_one_entry():
     library = (*GAIT_LIBRARY, pace)
     assert gait_index("pacing", library) == 3
     assert gait_library_arrays("cpu", library).num_gaits == 4
+
+
+def test_the_library_is_configuration_stored_in_checkpoints():
+    cfg = EnvConfig()
+    assert cfg.gait.library == TABLE_I == GAIT_LIBRARY
+    pace = Gait("pacing", (0.0, 0.5, 0.0, 0.5), 0.4, 1.5)
+    cfg.gait = GaitConfig(library=(*TABLE_I, pace), fixed_gait="pacing")
+    data = to_dict(cfg)
+    assert [g["name"] for g in data["gait"]["library"]] == [*GAIT_NAMES, "pacing"]
+    assert env_config_from_dict(data) == cfg  # entries come back as Gait
+    del data["gait"]["library"]  # a checkpoint written before the library was a setting gets Table I
+    notes = []
+    data["gait"]["fixed_gait"] = "trotting"
+    assert env_config_from_dict(data, notes).gait.library == TABLE_I
+    assert any(n.startswith("gait.library = ") for n in notes)
+    with pytest.raises(ValueError, match="unique names"):
+        GaitConfig(library=(*TABLE_I, TABLE_I[0]))
+
+
+def test_a_tuned_gait_loads_from_the_differentiable_paths_json():
+    import json
+    import os
+
+    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), TUNED)
+    with open(path, encoding="utf-8") as f:
+        tuning = json.load(f)["tuning"]
+    best = dict(zip(tuning["param_names"], tuning["best"]["params"], strict=True))
+    tuned = load_tuned_gait(path)
+    trot = TABLE_I[gait_index("trotting")]
+    assert tuned.name == "trotting" and tuned.phase_offsets == trot.phase_offsets
+    assert (tuned.frequency, tuned.df_swing, tuned.stance_x) == (best["frequency"], best["df_swing"], best["stance_x"])
+    assert (tuned.frequency, tuned.df_swing) != (trot.frequency, trot.df_swing)
+    replaced = GaitConfig().with_tuned(path)
+    assert [g.name for g in replaced.library] == list(GAIT_NAMES) and replaced.library[1] == tuned
+    added = GaitConfig().with_tuned(path, name="trotting_tuned")
+    assert added.library[:3] == TABLE_I and added.library[3].name == "trotting_tuned"
+    assert with_gait(TABLE_I, tuned)[1] is tuned
+
+
+def test_which_gaits_are_their_own_mirror_image():
+    driving, trotting, walking = TABLE_I
+    assert mirror_offsets(walking) == (0.25, 0.0, 0.75, 0.5)  # FR<->FL, RR<->RL: the sequence FL, FR, RL, RR
+    assert is_mirror_symmetric(driving) and is_mirror_symmetric(trotting)  # trot: shifted by half a cycle
+    assert not is_mirror_symmetric(walking)
+    assert is_mirror_symmetric(Gait("pacing", (0.0, 0.5, 0.0, 0.5), 0.4, 1.5))

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import torch
 
-from wqwarp.rl.config import make_preset
 from wqwarp.rl.env import WheeledGo1Env
+from wqwarp.rl.presets import make_preset
 from wqwarp.sim.config import SimConfig
 from wqwarp.sim.simulator import Simulator
 
@@ -40,7 +40,7 @@ def test_the_simulator_flags_exactly_the_diverged_robot(backend, value, tmp_path
     sim.reset([2])
     assert not sim.unstable.numpy().any()
     if backend == "mujoco_cpu" and value != value:  # MuJoCo warned (NaN): to the logger, not to MUJOCO_LOG.TXT
-        from wqwarp.sim.simulator import MUJOCO_WARNINGS
+        from wqwarp.sim.backends.mujoco_cpu import MUJOCO_WARNINGS
 
         assert MUJOCO_WARNINGS and "unstable" in MUJOCO_WARNINGS[-1]
         assert not os.path.exists("MUJOCO_LOG.TXT")

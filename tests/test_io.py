@@ -24,3 +24,10 @@ def test_a_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path):
         raise RuntimeError("crash while writing")
     assert p.read_text() == "checkpoint"
     assert os.listdir(tmp_path) == ["model.pt"]
+
+
+def test_the_written_file_has_the_permissions_of_a_plain_write(tmp_path):
+    plain, atomic = tmp_path / "plain.txt", tmp_path / "atomic.txt"
+    plain.write_text("x")
+    write_text_atomic(str(atomic), "x")
+    assert os.stat(atomic).st_mode & 0o777 == os.stat(plain).st_mode & 0o777

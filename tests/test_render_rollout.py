@@ -21,7 +21,7 @@ def _run(*args, env=None):
 @pytest.fixture(scope="module")
 def checkpoint(tmp_path_factory, save_checkpoint) -> str:
     """An untrained 'ours' checkpoint (configuration, policy, estimator, predictor), as train/ppo_newton.py saves."""
-    from wqwarp.rl.config import make_preset
+    from wqwarp.rl.presets import make_preset
 
     cfg = make_preset("ours")
     cfg.sim.num_envs = 2
@@ -63,8 +63,7 @@ def test_gif_has_a_panel_per_robot_and_moving_frames(checkpoint, tmp_path):
 
 
 def test_bad_input_exits_2_and_writes_nothing(checkpoint, tmp_path, capsys, monkeypatch):
-    monkeypatch.syspath_prepend(ROOT)
-    from tools.render_rollout import main
+    from wqwarp.cli.render import main
 
     def run(*args):
         code = main(list(args))

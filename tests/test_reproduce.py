@@ -1,25 +1,14 @@
-"""train/reproduce.py --budget smoke: every artefact is written, its numbers are the evaluation's, and a re-run
-continues instead of redoing."""
+"""train/reproduce.py --budget smoke (``wqwarp.eval.reproduce``): every artefact is written, its numbers are the
+evaluation's, and a re-run continues instead of redoing."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
-import sys
 
 import pytest
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-@pytest.fixture(scope="module")
-def reproduce():
-    spec = importlib.util.spec_from_file_location("reproduce_script", os.path.join(ROOT, "train", "reproduce.py"))
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # its dataclasses look their module up
-    spec.loader.exec_module(mod)
-    return mod
+from wqwarp.eval import reproduce
 
 
 def _load(path):
@@ -27,7 +16,7 @@ def _load(path):
         return json.load(f)
 
 
-def test_smoke_reproduction_writes_every_artefact_and_resumes(reproduce, tmp_path, capsys):
+def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     work, out = tmp_path / "work", tmp_path / "out"
     args = ["--budget", "smoke", "--presets", "ours,pmtg", "--work", str(work), "--out", str(out)]
     assert reproduce.main(args) == 0

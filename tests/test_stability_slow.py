@@ -1,5 +1,5 @@
 """Slow (``pytest -m slow``): 1e5 robot-steps of random extreme actions and commands never let a non-finite value
-through (the divergence guard, tools/stability_fuzz.py)."""
+through (the divergence guard, tools/studies/stability_fuzz.py)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 @pytest.mark.slow
 def test_extreme_random_actions_and_commands_stay_finite():
-    from tools.stability_fuzz import fuzz
+    from tools.studies.stability_fuzz import fuzz
 
     res = fuzz(100_000, 128, "ours", "auto", 0.005, 4, seed=3)
     c = res["counts"]

@@ -23,10 +23,15 @@ def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
     r = _run("ppo_newton.py", "--num-envs", "8", "--max-iterations", "2", "--log-dir", str(log), "--save-interval", "1")
     assert r.returncode == 0, r.stderr[-2000:]
     assert (log / "model_0.pt").is_file() and (log / "model_1.pt").is_file()
-    assert (log / "export" / "policy.pt").is_file() and (log / "export" / "policy.onnx").is_file()
+    assert (log / "export" / "policy.pt2").is_file() and (log / "export" / "policy.onnx").is_file()
+    assert [json.loads(line)["iteration"] for line in (log / "metrics.jsonl").read_text().splitlines()] == [1, 2]
     assert any(f.startswith("events.out.tfevents") for f in os.listdir(log))
+    record = json.loads((log / "config.json").read_text())  # the resolved tree and the command line beside the run
+    assert record["command"].startswith("train/ppo_newton.py --num-envs 8 --max-iterations 2")
+    assert record["env"]["sim"]["num_envs"] == 8 and record["train"]["max_iterations"] == 2
+    assert record["overrides"]["train.save_interval"] == 1 and record["args"]["save_interval"] == 1
     ckpt = torch.load(log / "model_1.pt", weights_only=False)
-    assert ckpt["infos"]["num_actions"] == 20 and "estimator" in ckpt["infos"]
+    assert ckpt["infos"]["num_actions"] == 20 and "estimator_state_dict" in ckpt
     before = (log / "model_1.pt").read_bytes()
 
     r = _run("ppo_newton.py", "--num-envs", "8", "--max-iterations", "2", "--log-dir", str(log),
@@ -38,7 +43,7 @@ def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
     assert torch.load(log / "model_3.pt", weights_only=False)["iter"] == 3
 
     # The exported onboard policy runs on a history of observations.
-    policy = torch.jit.load(str(log / "export" / "policy.pt"))
+    policy = torch.export.load(str(log / "export" / "policy.pt2")).module()
     meta = json.loads((log / "export" / "policy.json").read_text())
     actions, power = policy(torch.zeros(2, meta["history_length"], meta["proprio_dim"]))  # ours: + predictor
     assert actions.shape == (2, 20) and torch.isfinite(actions).all() and power.shape == (2, 3)

@@ -20,11 +20,11 @@ def test_short_training_run_tracks_forward_speed(tmp_path):
                        capture_output=True, text=True, cwd=ROOT, timeout=3600)  # fmt: skip
     assert r.returncode == 0, r.stderr[-2000:]
     from wqwarp.eval.loading import make_policy_runner
-    from wqwarp.eval.protocols import run_task
+    from wqwarp.eval.tracking import run_task
 
     runner = make_policy_runner(str(log / "model_299.pt"), "no_predictor", num_envs=32)
     res = run_task(runner, "vx", seconds=10.0)
     # Measured after the energy fixes (wheel kp 0.5, authors' stance): with the increment reading 0.037 m/s and 78 %
-    # upright after 300 iterations (the v_x task at 1000 iterations: 95 %; README); the offset default passes too.
+    # upright after 300 iterations (v_x at 1000 iterations: 95 %; docs/experiments.md); the offset default passes too.
     # Tracking is what is learned by now; staying upright at +-1 m/s keeps improving with more iterations.
     assert res.mean_abs_error < 0.15 and res.upright >= 0.6

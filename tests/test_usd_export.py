@@ -1,9 +1,8 @@
-"""tools/export_usd.py and wqwarp.viz.usd: the stage's prims, time samples, per-frame attributes and metadata;
-bad input exits 2 and leaves no file behind."""
+"""wqwarp.cli.export_usd (tools/export_usd.py) and wqwarp.viz.usd: the stage's prims, time samples, per-frame
+attributes and metadata; bad input exits 2 and leaves no file behind."""
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import subprocess
 import sys
@@ -23,20 +22,15 @@ N_ENVS, SECONDS = 2, 1.5
 FRAMES = int(round(SECONDS * 50)) + 1  # frame 0 = the state after reset
 
 
-def _load_tool():
-    spec = importlib.util.spec_from_file_location("export_usd_tool", TOOL)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def _run(*args):
     return subprocess.run([sys.executable, TOOL, *args], capture_output=True, text=True, cwd=ROOT)
 
 
 @pytest.fixture(scope="module")
 def tool():
-    return _load_tool()
+    from wqwarp.cli import export_usd
+
+    return export_usd
 
 
 @pytest.fixture(scope="module")
@@ -99,7 +93,7 @@ def test_bodies_above_ground_and_moving(trot_stage):
             wheel = _translations(s, f"/World/robot_{i}/{leg}_wheel")
             calf = _translations(s, f"/World/robot_{i}/{leg}_calf")
             # wheel radius 0.075 m. The knee (calf origin) is not checked: open loop (Kp 40 PD, no policy) the trot sags
-            # ~7 cm and the rear knees dip to the ground level (README, energy audit); the policy learns to carry it.
+            # ~7 cm and the rear knees dip to the ground level (docs/simulation.md); the policy learns to carry it.
             assert wheel[:, 2].min() > 0.05
             assert np.ptp(calf[:, 2]) > 0.02  # every knee moves up and down
             wheel_lift.append(np.ptp(wheel[:, 2]))
@@ -182,7 +176,7 @@ def test_bad_input_exits_2_without_a_file(tmp_path):
 @pytest.fixture(scope="module")
 def checkpoint(tmp_path_factory, save_checkpoint) -> str:
     """An untrained 'ours' checkpoint (configuration, policy, estimator, predictor), as train/ppo_newton.py saves."""
-    from wqwarp.rl.config import make_preset
+    from wqwarp.rl.presets import make_preset
 
     cfg = make_preset("ours")
     cfg.sim.num_envs = 1

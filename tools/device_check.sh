@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The GPU figures of issue 11 in one prepared sequence, for a lent CUDA machine (run there from the project root,
+# The GPU figures (CUDA throughput, training at 4096 robots, the device tests) in one prepared sequence, for a lent CUDA machine (run there from the project root,
 # after ../shared/device/check.sh has installed the packages; see ../shared/device/README.md). Writes to $OUT:
 #   bench_cuda_graph.json / bench_cuda_nograph.json   tools/bench.py at 1024 and 4096 robots, CUDA graph on / off
 #   bench_train_cuda.json                             tools/bench_train.py at 1024 and 4096 robots

@@ -3,7 +3,7 @@ temperature, switch rate, falls after a switch, and the power predictor's loss a
 
 Usage::
 
-    python tools/gait_report.py RUN_DIR [--last 100] [--json docs/gait_report.json]
+    python tools/gait_report.py RUN_DIR [--last 100] [--json gait_report.json]
 
 Each value is the mean over the last ``--last`` logged iterations (the scalars are written once per iteration by
 ``wqwarp.rl.runner.WqRunner``); a fixed-gait run reports its usage and switch counts too.

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 import warp as wp
 
 from wqwarp.kernels.actuation import (
@@ -14,7 +13,6 @@ from wqwarp.kernels.actuation import (
 )
 from wqwarp.robot.constants import TORQUE_LIMITS
 
-DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 NUM_ENVS = 4
 COORDS, DOFS, Q_START, QD_START = 23, 22, 7, 6
 GAINS = dict(leg_kp=40.0, leg_kd=1.0, wheel_kp=2.0, wheel_ki=5.0, wheel_kd=0.01, wheel_i_limit=0.3, dt=0.005)
@@ -62,7 +60,6 @@ def run_wheel_pid(rows, device):
     return out.numpy()
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_leg_pd_matches_numpy_and_hand_values(device):
     rng = np.random.default_rng(0)
     n = 64
@@ -85,7 +82,6 @@ def test_leg_pd_matches_numpy_and_hand_values(device):
     np.testing.assert_allclose(hand, [2.0, 23.7, -35.55], rtol=1e-6)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_wheel_pid_matches_numpy(device):
     rng = np.random.default_rng(1)
     n = 256
@@ -113,7 +109,6 @@ def test_wheel_pid_matches_numpy(device):
     assert saturated.any() and (~saturated).any()
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_wheel_pid_hand_values(device):
     # Columns: qd_target, qd, I, e_prev, kp, ki, kd, i_limit, limit, dt.
     rows = [
@@ -154,7 +149,6 @@ def np_actuation(q, qd, leg_target, wheel_target, limit, strength, integral, pre
     return tau, i_new, e
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_apply_actuation_matches_numpy_over_steps(device):
     rng = np.random.default_rng(2)
     limit = np.asarray(TORQUE_LIMITS, dtype=np.float32)
@@ -198,7 +192,6 @@ def test_apply_actuation_matches_numpy_over_steps(device):
     assert np.all(np.abs(torque.numpy()) <= limit + 1e-6)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_motor_strength_scales_before_clip(device):
     # Robot 0: hip PD gives 2.0 N m, strength 0.5 -> 1.0. Robot 1: 20.2 N m, strength 2 -> 40.4, clipped to 23.7.
     q = np.zeros((2, COORDS), dtype=np.float32)
@@ -231,7 +224,6 @@ def test_motor_strength_scales_before_clip(device):
     np.testing.assert_allclose(torque.numpy()[:, 0], [1.0, 23.7], rtol=1e-5)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_reset_wheel_pid_zeroes_only_listed_robots(device):
     rng = np.random.default_rng(3)
     i0 = rng.uniform(0.1, 1, (NUM_ENVS, 4)).astype(np.float32)

@@ -8,7 +8,6 @@ from wqwarp.control.gaits import GAIT_LIBRARY, gait_index, gait_library_arrays
 from wqwarp.kernels import gait, kinematics
 from wqwarp.robot import constants
 
-DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 H_B = constants.NOMINAL_BODY_HEIGHT
 H_S = constants.NOMINAL_SWING_HEIGHT
 R = constants.WHEEL_RADIUS
@@ -59,7 +58,6 @@ def _swing_height_np(psi):
 
 
 # --- equations -----------------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("device", DEVICES)
 def test_phase_update_eq1(device):
     rng = np.random.default_rng(0)
     phi, f, dphi = rng.uniform(0, 1, 200), rng.uniform(0, 2, 200), rng.uniform(-0.2, 0.2, 200)
@@ -73,13 +71,11 @@ def test_phase_update_eq1(device):
     assert out[2] < 1.0
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_swing_progress(device):
     psi = _funcs(device, phi=[0.0, 0.2, 0.39, 0.4, 0.9, 0.0, 0.5], df=[0.4, 0.4, 0.4, 0.4, 0.4, 0.0, 0.0])[1]
     np.testing.assert_allclose(psi, [0.0, 0.5, 0.975, -1, -1, -1, -1], atol=1e-6)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_swing_height_eq2(device):
     psi = np.linspace(0, 1, 101)
     np.testing.assert_allclose(_funcs(device, psi=psi)[2], _swing_height_np(psi), atol=1e-6)
@@ -100,7 +96,6 @@ def test_swing_height_eq2(device):
     assert -48 * 0.25 + 24 * 0.5 == 0 and 48 * 0.25 - 72 * 0.5 + 24 == 0
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_nominal_wheel_velocity_eq3(device):
     rng = np.random.default_rng(1)
     vx, wz, d = rng.uniform(-1, 1, 50), rng.uniform(-1, 1, 50), rng.uniform(-0.2, 0.2, 50)
@@ -145,7 +140,6 @@ class _Sim:
         )
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_reset_starts_in_stance(device):
     for g in GAIT_LIBRARY:
         sim = _Sim(device, 2, g.name)
@@ -156,7 +150,6 @@ def test_reset_starts_in_stance(device):
 FOOT_XY = np.array(constants.NOMINAL_FOOT_XY)  # authors' generator: (0.0149 front / 0.0321 rear, +-0.09525)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_driving_targets_hold_the_authors_stance(device):
     sim = _Sim(device, 2, "driving")
     sim.step()
@@ -184,7 +177,6 @@ def test_default_pose_is_the_authors_reset_stance():
     np.testing.assert_allclose(constants.DEFAULT_BASE_HEIGHT, -wheel[0, 2] + R, atol=1e-9)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_swing_moves_the_foot_back_then_forward(device):
     sim = _Sim(device, 1, "trotting")
     seen_back = seen_fwd = False
@@ -199,7 +191,6 @@ def test_swing_moves_the_foot_back_then_forward(device):
     assert seen_back and seen_fwd
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_phase_residual_readings(device):
     """increment: dphi accumulates every step; offset: phi = clock + dphi, the clock runs at f."""
     f, steps, dphi = GAIT_LIBRARY[gait_index("trotting")].frequency, 5, 0.01
@@ -219,7 +210,6 @@ def test_phase_residual_readings(device):
         _Sim(device, 1, "trotting", phase_mode="sideways").step()
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_trot_diagonal_legs_in_phase(device):
     sim = _Sim(device, 2, "trotting")
     swung = np.zeros(4, bool)
@@ -236,7 +226,6 @@ def test_trot_diagonal_legs_in_phase(device):
     assert swung.all()
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_walk_at_most_one_leg_in_swing(device):
     sim = _Sim(device, 1, "walking")
     dt = 0.002
@@ -250,14 +239,12 @@ def test_walk_at_most_one_leg_in_swing(device):
     assert swung.all()
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_wheel_velocity_pure_vx(device):
     sim = _Sim(device, 2, "driving", command=(0.6, 0.3, 0.0))  # v_y does not enter Eq. (3)
     sim.step()
     np.testing.assert_allclose(sim.state.wheel_velocity.numpy(), 0.6 / R, rtol=1e-5)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_wheel_velocity_pure_wz(device):
     wz = 0.5
     sim = _Sim(device, 2, "driving", command=(0.0, 0.0, wz))
@@ -273,7 +260,6 @@ def test_wheel_velocity_pure_wz(device):
     np.testing.assert_allclose(v[:, left], -v[:, right], rtol=1e-6)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_wheel_in_air_keeps_previous_target(device):
     contact = np.array([1, 0, 1, 0], np.int32)  # FL, RL in the air
     sim = _Sim(device, 2, "driving", command=(1.0, 0.0, 0.0), contact=contact)
@@ -297,7 +283,6 @@ def _switch_jump_bound(max_residual: float) -> float:
     return 3.0 * H_S * rate
 
 
-@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("max_residual", [0.0, 0.004])
 def test_gait_switching_bounds_target_jump(device, max_residual):
     rng = np.random.default_rng(2)

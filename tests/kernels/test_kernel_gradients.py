@@ -2,10 +2,10 @@
 IK, the leg PD torque inside the torque limit, the power terms away from zero torque and speed, the swing height
 (Eq. 2) inside each cubic branch, the swing x offset, the nominal wheel velocity (Eq. 3) and the tracking reward; the
 smooth |x| (``smooth_abs``, ``p_cost_term_smooth``) including at 0, and its bound below the exact term; the full
-kernels ``accumulate_power`` (p_cost), ``accumulate_p_cost_taped`` (smooth p_cost), ``apply_actuation`` and
-``apply_actuation_taped`` (joint torques w.r.t. the leg and wheel targets) and ``compute_rewards`` (reward w.r.t. the
-base velocities, torque_sq and power_sq). The gait kernels (phase wrap, swing progress, the open-loop gait) are in
-``test_gait_gradients.py``.
+kernels ``accumulate_power`` (p_cost), ``accumulate_p_cost_taped`` (smooth p_cost), ``apply_actuation`` in place
+and with separate PID-state outputs (joint torques w.r.t. the leg and wheel targets) and the Table II reward kernel
+after ``compute_base_frame`` (reward w.r.t. the base velocities, torque_sq and power_sq). The gait kernels (phase
+wrap, swing progress, the open-loop gait) are in ``test_gait_gradients.py``.
 
 float32 only: the project's kernels are typed ``float`` (float32), so there is no float64 variant to test.
 Central differences with h = ``EPS`` = 1e-3 in float32 leave ~1e-4 relative noise (ulp(value) / (2 h)), hence
@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wqwarp.kernels.actuation import apply_actuation, apply_actuation_taped, leg_pd_torque
+from wqwarp.kernels.actuation import actuation_gains, apply_actuation, leg_pd_torque
 from wqwarp.kernels.gait import nominal_wheel_velocity, swing_height, swing_x
 from wqwarp.kernels.kinematics import compute_leg_fk, compute_leg_ik
 from wqwarp.kernels.power import (
@@ -32,8 +32,10 @@ from wqwarp.kernels.power import (
     positive_mech_power_term,
     smooth_abs,
 )
-from wqwarp.kernels.rewards import compute_rewards, tracking_reward
+from wqwarp.kernels.rewards import RewardInputs, make_reward_kernel, tracking_reward
+from wqwarp.kernels.state import compute_base_frame
 from wqwarp.rl.config import RewardConfig
+from wqwarp.rl.rewards import TABLE_II
 from wqwarp.robot import constants as C
 
 EPS = 1e-3  # float32: central differences with h = 1e-3 leave ~1e-4 relative noise
@@ -308,27 +310,28 @@ def test_accumulate_p_cost_taped_smooth_gradient_including_zero(device):
 GAINS = dict(leg_kp=40.0, leg_kd=1.0, wheel_kp=0.5, wheel_ki=2.0, wheel_i_limit=2.5, dt=0.005)  # SimConfig's
 
 
-def _actuation(kernel, device, leg_target, wheel_target, state, wheel_kd):
-    """joint_torque (W, 16) of one launch of ``kernel`` on fresh copies of the PID state ``state`` = (q, qd, I, e_prev,
-    strength): the in-place kernel overwrites I and e_prev, so every FD evaluation starts from the same state."""
+def _actuation(in_place, device, leg_target, wheel_target, state, wheel_kd):
+    """joint_torque (W, 16) of one ``apply_actuation`` launch on fresh copies of the PID state ``state`` = (q, qd, I,
+    e_prev, strength), updated ``in_place`` (the same arrays as outputs, as the simulator launches it) or written to
+    separate outputs (the differentiable rollout): in place it overwrites I and e_prev, so every FD evaluation starts
+    from fresh copies."""
     q, qd, integral, prev, strength = state
     n = q.shape[0]
     g = GAINS
+    gains = actuation_gains(leg_kp=g["leg_kp"], leg_kd=g["leg_kd"], wheel_kp=g["wheel_kp"], wheel_ki=g["wheel_ki"],
+                            wheel_kd=wheel_kd, wheel_i_limit=g["wheel_i_limit"], dt=g["dt"])  # fmt: skip
+    pid = [_f32(integral, device), _f32(prev, device)]
     ins = [_f32(q, device), _f32(qd, device), _i32(np.arange(7, 23), device), _i32(DOF_INDEX, device), leg_target,
-           wheel_target, g["leg_kp"], g["leg_kd"], g["wheel_kp"], g["wheel_ki"], wheel_kd, g["wheel_i_limit"],
-           _f32(C.TORQUE_LIMITS, device), _f32(strength, device), g["dt"], _f32(integral, device),
-           _f32(prev, device)]  # fmt: skip
+           wheel_target, gains, _f32(C.TORQUE_LIMITS, device), _f32(strength, device), *pid]  # fmt: skip
     tau = wp.zeros((n, 16), dtype=wp.float32, device=device, requires_grad=True)
     jf = wp.zeros((n, DOFS), dtype=wp.float32, device=device, requires_grad=True)
-    outs = [tau, jf]
-    if kernel is apply_actuation_taped:
-        outs = [wp.zeros((n, 4), dtype=wp.float32, device=device) for _ in range(2)] + outs
-    wp.launch(kernel, dim=n, inputs=ins, outputs=outs, device=device)
+    pid_out = pid if in_place else [wp.zeros((n, 4), dtype=wp.float32, device=device) for _ in range(2)]
+    wp.launch(apply_actuation, dim=n, inputs=ins, outputs=[*pid_out, tau, jf], device=device)
     return tau
 
 
-def _actuation_grads(kernel, device, leg, wheel, state, wheel_kd):
-    run = lambda la, wa: _actuation(kernel, device, la, wa, state, wheel_kd)  # noqa: E731
+def _actuation_grads(in_place, device, leg, wheel, state, wheel_kd):
+    run = lambda la, wa: _actuation(in_place, device, la, wa, state, wheel_kd)  # noqa: E731
     g_leg, n_leg = _tape_grad(lambda a: run(a, _f32(wheel, device)), leg, device)
     g_wh, n_wh = _tape_grad(lambda a: run(_f32(leg, device), a), wheel, device)
     return g_leg, n_leg, g_wh, n_wh
@@ -341,19 +344,19 @@ def _actuation_state(rng, n):
 
 
 @pytest.mark.parametrize("wheel_kd", [0.0, 0.01])
-@pytest.mark.parametrize("kernel", [apply_actuation, apply_actuation_taped], ids=["in_place", "taped"])
-def test_apply_actuation_gradient_inside_the_limits(device, kernel, wheel_kd):
+@pytest.mark.parametrize("in_place", [True, False], ids=["in_place", "taped"])
+def test_apply_actuation_gradient_inside_the_limits(device, in_place, wheel_kd):
     """d tau_leg / d q_target = kp strength; d tau_wheel / d qd_target = (kp + ki dt + kd / dt) strength (kp + ki dt
-    for the project's kd = 0), with every torque inside its limit and the integral unclamped. For the in-place kernel
+    for the project's kd = 0), with every torque inside its limit and the integral unclamped. For the in-place launch
     this also holds in the tape's replay, which reads the already updated I and e_prev (see the test below)."""
     rng = np.random.default_rng(7)
     state = _actuation_state(rng, 2)
     q, qd, integral, prev, strength = state
     leg = q[:, 7:19] + rng.uniform(-0.1, 0.1, (2, 12))
     wheel = qd[:, DOF_INDEX[12:]] + prev + rng.uniform(-0.2, 0.2, (2, 4))  # |e - e_prev| <= 0.2: kd de <= 0.4 N m
-    tau = _actuation(kernel, device, _f32(leg, device), _f32(wheel, device), state, wheel_kd).numpy()
+    tau = _actuation(in_place, device, _f32(leg, device), _f32(wheel, device), state, wheel_kd).numpy()
     assert np.all(np.abs(tau) < 0.5 * np.asarray(C.TORQUE_LIMITS))  # the premise: no clipping anywhere
-    g_leg, n_leg, g_wh, n_wh = _actuation_grads(kernel, device, leg, wheel, state, wheel_kd)
+    g_leg, n_leg, g_wh, n_wh = _actuation_grads(in_place, device, leg, wheel, state, wheel_kd)
     np.testing.assert_allclose(g_leg, n_leg, rtol=RTOL, atol=ATOL)
     np.testing.assert_allclose(g_wh, n_wh, rtol=RTOL, atol=ATOL)
     w, s = _seed((2, 16)).astype(np.float64), strength.astype(np.float32).astype(np.float64)
@@ -364,19 +367,19 @@ def test_apply_actuation_gradient_inside_the_limits(device, kernel, wheel_kd):
 
 
 @pytest.mark.parametrize(
-    "kernel",
+    "in_place",
     [
-        pytest.param(apply_actuation, id="in_place", marks=pytest.mark.xfail(strict=True, reason=(
-            "apply_actuation updates wheel_integral / wheel_prev_error in place; the tape's adjoint replays the "
-            "kernel on the updated state, so the clamp and saturation branches can differ from the forward pass"))),
-        pytest.param(apply_actuation_taped, id="taped"),
+        pytest.param(True, id="in_place", marks=pytest.mark.xfail(strict=True, reason=(
+            "apply_actuation launched in place updates wheel_integral / wheel_prev_error; the tape's adjoint replays "
+            "the kernel on the updated state, so the clamp and saturation branches can differ from the forward pass"))),
+        pytest.param(False, id="taped"),
     ],
 )  # fmt: skip
-def test_wheel_torque_gradient_at_saturation_and_at_the_integral_clamp(device, kernel):
+def test_wheel_torque_gradient_at_saturation_and_at_the_integral_clamp(device, in_place):
     """Robot 0: a derivative kick (e = 2, e_prev = -1, kd = 0.01: kd de = 6 N m) saturates every wheel torque, so
     d tau / d qd_target = 0. Robot 1: the integral is 1.5 steps from its clamp (I + e dt stays inside, a second step
     would not), torques inside the limit, so d tau / d qd_target = (kp + ki dt + kd / dt) strength.
-    ``apply_actuation_taped`` (separate in and out PID arrays) gets both; the in-place ``apply_actuation`` gives
+    ``apply_actuation`` with separate in and out PID arrays gets both; launched in place it gives
     (kp + ki dt + kd / dt) strength ~ 2.5 instead of 0 for robot 0 (its replay sees e_prev = e, no kick) and drops
     the ki dt term for robot 1 (its replay sees the integral clamped)."""
     rng = np.random.default_rng(8)
@@ -389,7 +392,7 @@ def test_wheel_torque_gradient_at_saturation_and_at_the_integral_clamp(device, k
     state = (q, qd, integral, prev, strength)
     wheel = qd[:, DOF_INDEX[12:]] + e
     leg = q[:, 7:19]
-    g_leg, n_leg, g_wh, n_wh = _actuation_grads(kernel, device, leg, wheel, state, 0.01)
+    g_leg, n_leg, g_wh, n_wh = _actuation_grads(in_place, device, leg, wheel, state, 0.01)
     np.testing.assert_allclose(n_wh[0], 0.0, atol=ATOL)  # the premise: saturated
     w, s = _seed((2, 16)).astype(np.float64), strength.astype(np.float32).astype(np.float64)
     gain = g["wheel_kp"] + g["wheel_ki"] * g["dt"] + 0.01 / g["dt"]
@@ -422,7 +425,15 @@ def test_compute_rewards_gradient(device):
         ins += [f(tsq_a, tau_sq), f(psq_a, power_sq), _i32(np.zeros((n, 9)), device), _f32(weights, device), sigma, dt]
         outs = [wp.zeros(n, dtype=wp.float32, device=device, requires_grad=True)]
         outs += [wp.zeros((n, 12), dtype=wp.float32, device=device, requires_grad=True) for _ in range(2)]
-        wp.launch(compute_rewards, dim=n, inputs=ins, outputs=outs, device=device)  # fresh episode_sum every launch
+        inp = RewardInputs()  # the base frame as the simulator computes it, then the rewards: one tape
+        base = [wp.zeros((n, 3), dtype=wp.float32, device=device, requires_grad=True) for _ in range(3)]
+        base += [wp.zeros(n, dtype=wp.float32, device=device, requires_grad=True) for _ in range(2)]
+        wp.launch(compute_base_frame, dim=n, inputs=ins[:2], outputs=base, device=device)
+        inp.base_lin_vel, inp.base_ang_vel, inp.projected_gravity = base[:3]
+        (inp.command, inp.action, inp.prev_action, inp.prev2_action, inp.actuated_qd, inp.prev_actuated_qd,
+         inp.torque_sq, inp.power_sq, inp.body_collision, weight, inp.sigma, inp.dt) = ins[2:]
+        kernel = make_reward_kernel(tuple(t.resolve() for t in TABLE_II))
+        wp.launch(kernel, dim=n, inputs=[inp, weight], outputs=outs, device=device)  # fresh episode_sum every launch
         return outs[0]
 
     grad, num = _tape_grad(lambda a: reward(table, jqd_a=a), jqd, device)

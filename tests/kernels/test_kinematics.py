@@ -1,13 +1,11 @@
 """Leg FK / IK (kernels/kinematics.py) against NumPy and hand values."""
 
 import numpy as np
-import pytest
 import warp as wp
 
 from wqwarp.kernels import kinematics
 from wqwarp.robot import constants
 
-DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 SIDES = np.array(constants.LEG_SIDE_SIGN)
 
 
@@ -26,7 +24,6 @@ def _fk_numpy(q: np.ndarray, point=constants.WHEEL_CENTER_IN_CALF) -> np.ndarray
     return np.stack([kinematics.leg_fk_numpy(q[:, leg], SIDES[leg], point) for leg in range(4)], axis=1)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_fk_hand_value_zero_angles(device):
     # straight leg: thigh + calf below the thigh joint, calf x offset -0.015; the wheel sits INBOARD of the calf
     # (authors' MJCF): lateral 0.08 - 0.0245 = 0.0555 from the hip joint
@@ -38,7 +35,6 @@ def test_fk_hand_value_zero_angles(device):
     np.testing.assert_allclose(p, np.array([[0.0, s * 0.08, -0.426] for s in SIDES]), atol=1e-6)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_fk_matches_numpy(device):
     rng = np.random.default_rng(0)
     lo, hi = np.array(constants.LEG_JOINT_RANGES).T
@@ -46,7 +42,6 @@ def test_fk_matches_numpy(device):
     np.testing.assert_allclose(_fk(q, device), _fk_numpy(q), atol=1e-6)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_foot_ik_of_the_default_stance_gives_the_default_angles(device):
     q = np.array(constants.DEFAULT_JOINT_POS[:12])
     p = _fk_numpy(q[None], constants.FOOT_IN_CALF)
@@ -57,7 +52,6 @@ def test_foot_ik_of_the_default_stance_gives_the_default_angles(device):
     np.testing.assert_allclose(_ik(p, device, constants.FOOT_IN_CALF)[0], q, atol=1e-4)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_foot_ik_round_trip(device):
     rng = np.random.default_rng(3)
     q = rng.uniform([-0.6, 0.3, -2.6] * 4, [0.6, 1.6, -1.0] * 4, size=(256, 12))
@@ -67,7 +61,6 @@ def test_foot_ik_round_trip(device):
     assert err.max() < 1e-5, err.max()
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_ik_fk_round_trip(device):
     rng = np.random.default_rng(1)
     # reachable targets: FK of joint angles inside the ranges, on the IK branch (wheel below the thigh joint)
@@ -86,7 +79,6 @@ def test_ik_fk_round_trip(device):
     np.testing.assert_allclose(q_ik, q, atol=2e-3)  # unique solution on this branch
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_ik_unreachable_is_clamped_and_finite(device):
     p = np.array([[[0.0, 0.0, -1.0], [0.5, 0.5, 0.5], [0.0, -0.0555, 0.0], [0.0, 0.0, 0.0]]])
     q = _ik(p, device)

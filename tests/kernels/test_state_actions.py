@@ -8,10 +8,14 @@ import warp as wp
 
 from wqwarp.kernels.actions import joint_offset_targets, residual_targets
 from wqwarp.kernels.kinematics import leg_fk_numpy
-from wqwarp.kernels.state import mujoco_state_to_newton, newton_state_to_mujoco
+from wqwarp.kernels.state import (
+    BASE_FRAME_OUTPUTS,
+    compute_base_frame,
+    mujoco_state_to_newton,
+    newton_state_to_mujoco,
+)
 from wqwarp.robot import constants as C
 
-DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 COM = np.array([0.0223, 0.002, -0.0005])
 
 
@@ -22,7 +26,6 @@ def _quat_xyzw_to_mat(q):
                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])  # fmt: skip
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_mujoco_newton_round_trip_and_free_joint_convention(device):
     rng = np.random.default_rng(3)
     n, nq, nv, off = 4, 23, 22, 1  # mjSTATE_FULLPHYSICS starts with time
@@ -50,7 +53,6 @@ def test_mujoco_newton_round_trip_and_free_joint_convention(device):
     np.testing.assert_allclose(back.numpy()[:, off : off + nq + nv], state[:, off : off + nq + nv], atol=1e-5)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_residual_targets_add_clip_and_invert(device):
     n = 2
     side = np.asarray(C.LEG_SIDE_SIGN)
@@ -79,7 +81,6 @@ def test_residual_targets_add_clip_and_invert(device):
     np.testing.assert_allclose(q.numpy()[0, 3:], C.DEFAULT_JOINT_POS[3:12], atol=1e-4)  # dp = 0 legs
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_joint_offset_targets(device):
     a = np.zeros((1, 16), np.float32)
     a[0, 1], a[0, 12], a[0, 13] = 1.0, 2.0, 100.0
@@ -90,3 +91,36 @@ def test_joint_offset_targets(device):
               40.0], outputs=[q, v], device=device)  # fmt: skip
     assert q.numpy()[0, 1] == pytest.approx(C.DEFAULT_JOINT_POS[1] + 0.25)
     np.testing.assert_allclose(v.numpy()[0], (10.0, 40.0, 0.0, 0.0))
+
+
+def _quat_rotate_inv_numpy(q_xyzw: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """R(q)^T v for each row, R from the xyzw quaternion (normalised)."""
+    return np.stack([_quat_xyzw_to_mat(qi / np.linalg.norm(qi)).T @ vi for qi, vi in zip(q_xyzw, v, strict=True)])
+
+
+def test_compute_base_frame_against_numpy_and_hand_values(device):
+    rng = np.random.default_rng(5)
+    n = 6
+    jq = rng.normal(size=(n, 23)).astype(np.float32)
+    quat = rng.normal(size=(n, 4))
+    jq[:, 3:7] = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+    jq[0, 3:7] = [0.0, 0.0, np.sin(0.3), np.cos(0.3)]  # hand value: yaw 0.6 rad about z, level
+    jqd = rng.normal(size=(n, 22)).astype(np.float32)
+    jqd[0, 0:6] = [1.0, 0.0, 0.0, 0.0, 0.0, 0.5]
+    outs = [wp.zeros((n, w) if w else n, dtype=wp.float32, device=device) for _, w in BASE_FRAME_OUTPUTS]
+    wp.launch(compute_base_frame, dim=n, inputs=[wp.array(jq, device=device), wp.array(jqd, device=device)],
+              outputs=outs, device=device)  # fmt: skip
+    got = {name: a.numpy() for (name, _), a in zip(BASE_FRAME_OUTPUTS, outs, strict=True)}
+    q = jq[:, 3:7].astype(np.float64)
+    np.testing.assert_allclose(got["base_lin_vel"], _quat_rotate_inv_numpy(q, jqd[:, 0:3]), atol=1e-5)
+    np.testing.assert_allclose(got["base_ang_vel"], _quat_rotate_inv_numpy(q, jqd[:, 3:6]), atol=1e-5)
+    np.testing.assert_allclose(got["projected_gravity"], _quat_rotate_inv_numpy(q, np.tile([0, 0, -1.0], (n, 1))),
+                               atol=1e-5)  # fmt: skip
+    np.testing.assert_array_equal(got["base_height"], jq[:, 2])
+    x, y, z, w = q.T
+    np.testing.assert_allclose(got["base_yaw"], np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)), atol=1e-5)
+    # hand values: heading 0.6 rad, 1 m/s forward in the world -> (cos 0.6, -sin 0.6) in the base, gravity straight down
+    np.testing.assert_allclose(got["base_yaw"][0], 0.6, atol=1e-6)
+    np.testing.assert_allclose(got["base_lin_vel"][0], [np.cos(0.6), -np.sin(0.6), 0.0], atol=1e-6)
+    np.testing.assert_allclose(got["base_ang_vel"][0], [0.0, 0.0, 0.5], atol=1e-6)
+    np.testing.assert_allclose(got["projected_gravity"][0], [0.0, 0.0, -1.0], atol=1e-6)

@@ -1,9 +1,9 @@
 """The differentiable path: the Featherstone backend stands and drives, and the taped rollout's gradients match
 central finite differences (float32; tolerances per test) from the same start state.
 
-Tolerances come from ``tools/gradient_study.py`` (docs/diffsim/gradient_study.json): through contact at dt 0.002 the
-tape and finite differences agree to a cosine > 0.99 and a relative error < ~0.1 up to 0.1 s; in free fall (no
-contact) to ~1e-3 over 0.2 s."""
+Tolerances come from ``tools/studies/gradient_study.py`` (docs/studies/diffsim/gradient_study.json): through contact
+at dt 0.002 the tape and finite differences agree to a cosine > 0.99 and a relative error < ~0.1 up to 0.1 s; in free
+fall (no contact) to ~1e-3 over 0.2 s."""
 
 from __future__ import annotations
 
@@ -203,13 +203,8 @@ def test_objective_weights_are_the_gradient_of_j():
 
 
 def test_energy_audit_runs_on_featherstone():
-    import importlib.util
-    import os
+    from wqwarp.cli import energy_audit as audit
 
-    path = os.path.join(os.path.dirname(__file__), "..", "..", "tools", "energy_audit.py")
-    spec = importlib.util.spec_from_file_location("energy_audit", path)
-    audit = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(audit)
     r = audit.run_scenario("drive_0.5", 0.002, 10, 0.6, 0.4, 1, backend="featherstone")
     assert 0.35 < r["v_x"] < 0.7 and not r["trunk_touched"]
     assert r["p_cost"] == pytest.approx(r["p_cost_legs"] + r["p_cost_wheels"], rel=1e-5)

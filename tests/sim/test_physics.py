@@ -23,10 +23,11 @@ def _run(sim, seconds, record=lambda s: None):
     return out
 
 
-def _base_vel_body(sim):
-    """Base linear velocity in the base frame (from Newton's world-frame COM velocity; COM offset is tiny)."""
+def _base_vel_body(sim, v=None):
+    """Base linear velocity in the base frame (from Newton's world-frame COM velocity; COM offset is tiny), or the
+    world vectors ``v`` (N, 3) rotated into the base frame."""
     q = sim.joint_q.numpy()[:, 3:7]
-    v = sim.joint_qd.numpy()[:, 0:3]
+    v = sim.joint_qd.numpy()[:, 0:3] if v is None else v
     x, y, z, w = q.T
     rot = np.stack([
         np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
@@ -125,6 +126,34 @@ def test_torch_views_share_memory(sim):
     assert np.all(sim.wheel_qd_target.numpy() == 1.25)
 
 
+def test_base_frame_buffers_follow_steps_resets_and_writes(sim):
+    """``base_lin_vel`` ... ``base_yaw`` equal the rotation of Newton's world-frame rows after a step, a reset and an
+    in-place write announced by ``state_written`` (a push)."""
+
+    def check():
+        q, qd = sim.joint_q.numpy(), sim.joint_qd.numpy()
+        x, y, z, w = q[:, 3:7].T
+        np.testing.assert_allclose(sim.base_lin_vel.numpy(), _base_vel_body(sim), atol=1e-5)
+        np.testing.assert_allclose(sim.base_height.numpy(), q[:, 2])
+        np.testing.assert_allclose(sim.base_yaw.numpy(), np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)),
+                                   atol=1e-5)  # fmt: skip
+        g = np.tile([0.0, 0.0, -1.0], (sim.num_envs, 1))
+        np.testing.assert_allclose(sim.projected_gravity.numpy(), _base_vel_body(sim, g), atol=1e-5)
+        np.testing.assert_allclose(sim.base_ang_vel.numpy(), _base_vel_body(sim, qd[:, 3:6]), atol=1e-5)
+
+    sim.reset(np.arange(sim.num_envs))
+    check()
+    sim.wheel_qd_target.fill_(3.0)
+    _run(sim, 0.2)
+    check()
+    views = sim.torch_views()
+    assert views["base_lin_vel"].shape == (sim.num_envs, 3) and views["base_yaw"].shape == (sim.num_envs,)
+    views["joint_qd"][:, 0] += 0.7  # a push, as the env writes it
+    sim.state_written()
+    check()
+    sim.wheel_qd_target.zero_()
+
+
 def test_paper_timestep_runs():
     sim = Simulator(SimConfig(num_envs=2, dt=0.001, decimation=20))
     assert sim.policy_dt == pytest.approx(0.02)
@@ -137,6 +166,19 @@ def test_bad_config_is_rejected():
         SimConfig(backend="physx").validate()
     with pytest.raises(ValueError, match="num_envs"):
         SimConfig(num_envs=0).validate()
+
+
+def test_every_configurable_backend_has_one_registered_class():
+    """A backend is one class in ``wqwarp.sim.backends`` and one registry entry; its name is a ``SimConfig.backend``
+    choice. The simulator holds its buffers as attributes, with no attribute delegation."""
+    from wqwarp.sim import config
+    from wqwarp.sim.backends import BACKENDS, PhysicsBackend
+    from wqwarp.sim.buffers import BUFFER_NAMES
+
+    assert set(BACKENDS) == set(config.BACKENDS) - {"auto"}
+    assert all(issubclass(cls, PhysicsBackend) and cls.name == name for name, cls in BACKENDS.items())
+    assert "__getattr__" not in vars(Simulator)
+    assert {"p_cost", "leg_q_target", "actuated_qd", "torque_sq", "base_lin_vel", "base_yaw"} <= set(BUFFER_NAMES)
 
 
 @pytest.mark.parametrize("backend", ["mujoco_cpu", "mujoco_warp"])

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from wqwarp.control.gaits import GAIT_LIBRARY, Gait, gait_index, gait_library_arrays
+from wqwarp.control.gaits import TABLE_I, Gait, gait_index, gait_library_arrays
 from wqwarp.kernels import gait as gait_kernels
 from wqwarp.robot import constants as C
 
@@ -29,7 +29,7 @@ class NominalGait:
         self,
         world_count: int,
         device: wp.context.Devicelike = "cpu",
-        library: tuple[Gait, ...] = GAIT_LIBRARY,
+        library: tuple[Gait, ...] = TABLE_I,
         body_height: float = C.NOMINAL_BODY_HEIGHT,
         swing_height: float = C.NOMINAL_SWING_HEIGHT,
         swing_x_amplitude: float = C.MAX_HORIZONTAL_OFFSET,
@@ -53,12 +53,11 @@ class NominalGait:
         self.command = wp.zeros((world_count, 3), dtype=wp.float32, device=self.device)
         self.gait_id = wp.zeros(world_count, dtype=wp.int32, device=self.device)
         self.phase_residual = wp.zeros((world_count, 4), dtype=wp.float32, device=self.device)
-
-    def __getattr__(self, name):  # expose the gait state: phase, swing_psi, foot_target, ...
-        state = self.__dict__.get("state")
-        if state is not None and hasattr(state, name):
-            return getattr(state, name)
-        raise AttributeError(name)
+        # The gait state's buffers (allocated once, updated in place by reset and step; see NominalGaitState).
+        st = self.state
+        self.clock, self.phase, self.active_gait_id = st.clock, st.phase, st.active_gait_id
+        self.wheel_velocity, self.swing_psi, self.foot_target = st.wheel_velocity, st.swing_psi, st.foot_target
+        self.leg_joint_target = st.leg_joint_target
 
     def gait_ids(self, name: str) -> int:
         """Index of gait ``name`` in this library (clear ValueError for an unknown name)."""

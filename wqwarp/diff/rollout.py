@@ -25,7 +25,7 @@ What makes a multi-step tape correct here (checked by ``tests/sim/test_diffsim.p
   finite differences). The forward forces are the same as Newton's own evaluation.
 
 Gradients are truncated to the taped horizon: the warm-up that brings the robots to a settled gait is not taped.
-How far they can be trusted against horizon and dt: ``tools/gradient_study.py``, README "Differentiable simulation".
+How far they can be trusted against horizon and dt: ``tools/studies/gradient_study.py``, docs/differentiable.md.
 """
 
 from __future__ import annotations
@@ -133,8 +133,8 @@ class DiffRollout:
         self.anchored_contacts = anchored_contacts
         """Evaluate the contact forces with ``kernels.contacts.anchored_penalty_contacts`` (a wheel's contact point
         carried by its calf, so it does not turn with the wheel within a substep) instead of inside Featherstone
-        (Newton's ``eval_body_contact``, the point fixed on the wheel). Same forward forces; see the README."""
-        from wqwarp.sim.simulator import apply_joint_model
+        (Newton's ``eval_body_contact``, the point fixed on the wheel). Same forward forces (docs/differentiable.md)."""
+        from wqwarp.sim.model import apply_joint_model
 
         with wp.ScopedDevice(self.device):
             self.model = robot.scene_builder(n).finalize(device=self.device, requires_grad=True)
@@ -194,15 +194,16 @@ class DiffRollout:
         return getattr(state, name).reshape((self.num_envs, width))
 
     def _actuate(self, state, leg_t, wheel_t, i_in, e_in, i_out, e_out, torque, joint_f) -> None:
-        """``apply_actuation_taped``: PID state read from ``i_in``/``e_in``, written to ``i_out``/``e_out`` (the same
-        arrays for the untaped loops, which update it in place)."""
+        """``kernels.actuation.apply_actuation``: PID state read from ``i_in``/``e_in``, written to ``i_out``/``e_out``
+        (separate arrays on the tape; the same arrays for the untaped loops, which update it in place)."""
         cfg, lay = self.cfg, self.layout
-        wp.launch(actuation.apply_actuation_taped, dim=self.num_envs,
-                  inputs=[self._rows(state, "joint_q", lay.coords_per_world),
-                          self._rows(state, "joint_qd", lay.dofs_per_world), self.coord_index, self.dof_index, leg_t,
-                          wheel_t, cfg.leg_kp, cfg.leg_kd, cfg.wheel_kp, cfg.wheel_ki, cfg.wheel_kd, cfg.wheel_i_limit,
-                          self.torque_limit, self.strength, cfg.dt, i_in, e_in],
-                  outputs=[i_out, e_out, torque, joint_f.reshape((self.num_envs, lay.dofs_per_world))])  # fmt: skip
+        actuation.launch_actuation(
+            self._rows(state, "joint_q", lay.coords_per_world), self._rows(state, "joint_qd", lay.dofs_per_world),
+            leg_t, wheel_t, self.torque_limit, self.strength, i_in, e_in, torque,
+            joint_f.reshape((self.num_envs, lay.dofs_per_world)), self.coord_index, self.dof_index,
+            leg_kp=cfg.leg_kp, leg_kd=cfg.leg_kd, wheel_kp=cfg.wheel_kp, wheel_ki=cfg.wheel_ki, wheel_kd=cfg.wheel_kd,
+            wheel_i_limit=cfg.wheel_i_limit, dt=cfg.dt, wheel_integral_out=i_out, wheel_prev_error_out=e_out,
+        )  # fmt: skip
 
     def _targets(self, step: int, t: float, leg_t, wheel_t) -> None:
         n = self.num_envs

@@ -10,8 +10,8 @@ averaged over ``windows`` robots whose gait clocks start evenly spread over one 
 [W] and v_x the base forward speed [m/s], both means over a short taped window after an untaped warm-up, z the trunk
 height [m] and z_0 its value with the initial parameters. At v_x = v_c, P / v_c is the energy per metre. The taped
 window is kept short (``TuneConfig.horizon_s``, 0.1 s) because longer windows through contact give gradients that
-no longer match finite differences (``tools/gradient_study.py``, ``docs/diffsim/``); spreading the windows over the
-gait cycle averages the gradient over the phases, which a single short window would not see.
+no longer match finite differences (``tools/studies/gradient_study.py``, ``docs/studies/diffsim/``); spreading the
+windows over the gait cycle averages the gradient over the phases, which a single short window would not see.
 
 :func:`evaluate` measures a parameter set with the project's closed-loop nominal gait (``wqwarp.nominal.
 NominalGait``, Eq. (1)-(3) with contact-dependent wheel speeds) on any ``Simulator`` backend, with the exact p_cost,
@@ -59,7 +59,8 @@ class TuneConfig:
     """Taped window [s]."""
     warmup_s: float = 1.5
     """Untaped warm-up before each window [s]: the drop from the start pose and the first strides take ~1 s
-    (``docs/diffsim/compare_physics_dt0.001.png``); a 0.5 s warm-up samples that transient (README)."""
+    (``docs/studies/diffsim/compare_physics_dt0.001.png``); a 0.5 s warm-up samples that transient
+    (``docs/differentiable.md``)."""
     windows: int = 8
     """Robots per iteration, their gait clocks spread evenly over one cycle."""
     iterations: int = 30
@@ -185,11 +186,7 @@ def evaluate(params, gait: str, vx: float, backend: str = "mujoco_cpu", dt: floa
     """Run the closed-loop nominal gait with ``params`` (h_b, h_s, f, DF_swing, stance x) at command (vx, 0, 0) on
     ``backend`` and return the window means: p_cost (and legs / wheels) [W], v_x [m/s], trunk height [m], energy per
     metre p_cost / v_x [J/m] (None below 0.02 m/s), and whether the trunk touched the ground."""
-    import torch
-    import warp as wp
-
-    from wqwarp.control.nominal import NominalGait
-    from wqwarp.rl.env import quat_rotate_inv
+    from wqwarp.control.driver import OpenLoopDriver
     from wqwarp.sim.config import SimConfig
     from wqwarp.sim.simulator import Simulator
 
@@ -198,27 +195,22 @@ def evaluate(params, gait: str, vx: float, backend: str = "mujoco_cpu", dt: floa
     library = (Gait(base.name, base.phase_offsets, df_swing=p[3], frequency=p[2], stance_x=p[4]),)
     n = num_envs
     sim = Simulator(SimConfig(num_envs=n, device="cpu", dt=dt, decimation=decimation, backend=backend))
-    ng = NominalGait(n, "cpu", library=library, body_height=p[0], swing_height=p[1])
-    ng.reset(np.arange(n), 0)
-    ng.command.assign(np.tile(np.array([vx, 0.0, 0.0], np.float32), (n, 1)))
-    policy_dt = dt * decimation
-    warm, window = round(warmup_s / policy_dt), round(seconds / policy_dt)
+    drv = OpenLoopDriver(sim, base.name, (vx, 0.0, 0.0), library=library, body_height=p[0], swing_height=p[1])
     acc = dict.fromkeys(("p_cost", "p_cost_legs", "p_cost_wheels", "vx", "height"), 0.0)
+    window = drv.steps(seconds)
     touched = False
-    for k in range(warm + window):
-        ng.step(sim.actuated_q[:, :12], sim.wheel_contact, policy_dt)
-        wp.copy(sim.leg_q_target, ng.leg_joint_target)
-        wp.copy(sim.wheel_qd_target, ng.wheel_velocity)
-        sim.step()
+
+    def record(k: int, in_window: bool) -> None:
+        nonlocal touched
         touched |= bool(sim.body_collision.numpy()[:, 0].any())
-        if k < warm:
-            continue
+        if not in_window:
+            return
         for name in ("p_cost", "p_cost_legs", "p_cost_wheels"):
             acc[name] += float(getattr(sim, name).numpy().mean()) / window
-        jq, jqd = sim.joint_q.numpy(), sim.joint_qd.numpy()
-        v_base = quat_rotate_inv(torch.from_numpy(jq[:, 3:7]), torch.from_numpy(jqd[:, 0:3]))
-        acc["vx"] += float(v_base[:, 0].mean()) / window
-        acc["height"] += float(jq[:, 2].mean()) / window
+        acc["vx"] += float(sim.base_lin_vel.numpy()[:, 0].mean()) / window
+        acc["height"] += float(sim.base_height.numpy().mean()) / window
+
+    drv.run(seconds, warmup_s, on_step=record)
     acc["energy_per_m"] = acc["p_cost"] / acc["vx"] if acc["vx"] > 0.02 else None
     acc["trunk_touched"] = touched
     acc.update(backend=sim.backend, dt=dt, decimation=decimation, warmup_s=warmup_s, seconds=seconds, num_envs=n,

@@ -1,220 +1,140 @@
-"""The paper's evaluation (Sec. IV-A): velocity tracking, energy, and push recovery of a trained policy.
+"""The evaluation protocols of the paper, registered once: each is one function ``run(options, log) -> result`` with
+its options dataclass (``wqwarp.eval.options``), its defaults and its outputs (a JSON result, and a PNG where it
+draws one). ``train/evaluate.py --protocol NAME`` and ``train/reproduce.py``'s stages both go through
+:func:`run_protocol`; adding a protocol is one function (with its options) and one :data:`PROTOCOLS` entry.
 
-Tracking and energy: one command axis at a time (v_x in [-1, 1] m/s, v_y in [-0.7, 0.7] m/s, w in [-0.7, 0.7]
-rad/s), the others zero; robots get commands spread evenly over the range and hold them for the whole run. We
-report per task the mean squared and mean absolute tracking error (after a settling time), the mean p_cost
-(sum |tau| |qd| over 16 joints) [W], and the share of robots that never touched the ground with the trunk. Every
-metric is over all robots: a robot that falls is reset where it is and keeps counting, and the number of falls is
-reported beside the metrics.
-
-Cost of transport (translation tasks): CoT = P / (m g v), the mean p_cost over the mean planar speed of all robots
-(energy per metre of travel over m g, without unit), m the robot's mass; reported for the v_x and v_y tasks where the
-mean speed is at least 0.1 m/s.
-
-Push recovery (Table III): random velocity impulses up to ``max_push`` along the trunk's x and y every
-``push_interval`` seconds; a robot recovers if its trunk never touches the ground.
+The protocols, their options and defaults: :data:`PROTOCOLS` (``python train/evaluate.py --help`` lists them).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import argparse
+import sys
+import textwrap
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TextIO
 
-import numpy as np
-import torch
-
-from wqwarp.rl.gait_selection import usage_from_scalars
-
-TASKS = {"vx": (0, (-1.0, 1.0)), "vy": (1, (-0.7, 0.7)), "wz": (2, (-0.7, 0.7)), "stand": (0, (0.0, 0.0))}
-"""Task -> (command axis, range) of the paper's tracking evaluation (Sec. IV-A)."""
-
-PUSH_TASKS = {"stand": (0, (0.0, 0.0)), "vx": (0, (-1.0, 1.0)), "vy": (1, (-1.0, 1.0)), "wz": (2, (-1.0, 1.0))}
-"""Task -> (command axis, range) of the paper's push-recovery evaluation (Table III: all commands zero, and v_x, v_y,
-w each in [-1, 1])."""
+from wqwarp.eval.energy_map import EnergyMapOptions, draw_energy_map, energy_map
+from wqwarp.eval.options import ProtocolOptions, add_options, command_line, from_namespace
+from wqwarp.eval.timeline import TimelineOptions, draw_timeline, timeline
+from wqwarp.eval.tracking import TrackingOptions, push, sim2sim, tracking
 
 
-@dataclass
-class EvalResult:
-    task: str
-    num_robots: int
-    seconds: float
-    mse: float
-    """Mean squared tracking error of the commanded axis [(m/s)^2 or (rad/s)^2]."""
-    mean_abs_error: float
-    """Mean absolute tracking error of the commanded axis [m/s or rad/s]."""
-    mean_p_cost: float
-    """Mean p_cost [W]."""
-    mean_p_cost_legs: float
-    """Mean p_cost of the 12 leg joints [W]."""
-    mean_p_cost_wheels: float
-    """Mean p_cost of the 4 wheels [W]."""
-    upright: float
-    """Share of robots whose trunk never touched the ground [-]."""
-    falls: int = 0
-    """Trunk-ground contacts over the run (a robot that falls is reset where it is and keeps counting)."""
-    max_push: float = 0.0
-    command_range: list | None = None
-    """[lo, hi] of the task's command axis."""
-    outside_training_range: bool = False
-    """True when the task's commands leave the range the policy was trained on (the env's ``commands`` config)."""
-    gait_usage: dict | None = None
-    """Share of robot-steps in each running gait (all robots, settling included) [-]."""
-    gait_switches_per_robot_minute: float = 0.0
-    """Changes of the running gait per robot and minute."""
-    falls_within_1s_of_switch: int = 0
-    """Trunk-ground contacts within 1 s after a gait switch."""
-    mse_axes: list | None = None
-    """Mean squared error of each axis (v_x, v_y, w_z) against its command (0 off the task's axis)."""
-    mean_p_mech: float = 0.0
-    """Mean positive mechanical power sum max(tau qd, 0) over the 16 joints [W] (``wqwarp.kernels.power``)."""
-    mean_p_joule: float = 0.0
-    """Mean electrical power of the Joule model sum max(0.3 tau^2 + tau qd, 0) over the 16 motors [W]."""
-    predicted_power: dict | None = None
-    """Predictive selection: the power predictor's mean output per gait over the measured steps [W]."""
-    mean_speed: float = 0.0
-    """Mean planar speed |(v_x, v_y)| of the base over the measured steps, all robots [m/s]."""
-    cost_of_transport: float | None = None
-    """mean_p_cost / (m g mean_speed) [-]; None for stand and yaw, and where mean_speed < 0.1 m/s."""
-    mean_p_mech_legs: float = 0.0
-    """Mean positive mechanical power of the 12 leg joints [W]."""
-    mean_p_mech_wheels: float = 0.0
-    """Mean positive mechanical power of the 4 wheels [W]."""
-    predicted_power_running: float | None = None
-    """Predictive selection: mean predicted power of the gait running at each measured step [W] (compare with
-    ``mean_p_cost`` over the same robots and steps)."""
+@dataclass(frozen=True)
+class Protocol:
+    """One evaluation protocol."""
+
+    name: str
+    run: Callable[[ProtocolOptions, TextIO], dict]
+    """``run(options, log)``: the result (written as JSON); prints its tables to ``log``."""
+    options: type[ProtocolOptions]
+    doc: str
+    defaults: dict = field(default_factory=dict)
+    """This protocol's defaults over those of its options dataclass."""
+    draw: Callable[[dict, str, str | None], None] | None = None
+    """``draw(result, png_path, command)``: the figure of ``--png``, if the protocol has one."""
+    json_indent: int | None = 2
+    """Indent of the JSON result (None: compact, for time series)."""
 
 
-def spread_commands(task: str, n: int, command_range: tuple[float, float] | None = None) -> torch.Tensor:
-    """(n, 3) commands with only the task's axis set, evenly spread over its range (default: :data:`TASKS`)."""
-    axis, (lo, hi) = TASKS[task]
-    if command_range is not None:
-        lo, hi = command_range
-    cmd = torch.zeros(n, 3)
-    cmd[:, axis] = torch.linspace(lo, hi, n) if n > 1 else torch.tensor([(lo + hi) / 2])
-    return cmd
+PROTOCOLS = {p.name: p for p in (
+    Protocol("tracking", tracking, TrackingOptions, "--tasks over the paper's tracking ranges, --push optional"),
+    Protocol("push", push, TrackingOptions, "Table III - tasks stand, vx, vy, wz with commands in [-1, 1], random "
+             "pushes up to each of --push-levels m/s every 15 s along the trunk's x and y; a robot recovers if its "
+             "trunk never touches the ground (default 60 s per run)",
+             defaults={"tasks": "stand,vx,vy,wz", "seconds": 60.0}),
+    Protocol("sim2sim", sim2sim, TrackingOptions, "tracking under the training physics and under each of --physics "
+             "(default the paper's dt 0.001 x 20 and the authors' joint model), with the deltas",
+             defaults={"physics": "dt0.001,authors"}),
+    Protocol("timeline", timeline, TimelineOptions, "the paper's Fig. 6: robots through held --segments, gaits, "
+             "power and the FR wheel height over time (train/reproduce.py: the Fig. 6 segments)",
+             draw=draw_timeline, json_indent=None),
+    Protocol("energymap", energy_map, EnergyMapOptions, "per command cell of a (v_x, v_y) and a (v_x, w) grid: each "
+             "gait's measured and predicted power and the cheapest gait", draw=draw_energy_map, json_indent=None),
+)}  # fmt: skip
+"""Every evaluation protocol, by name."""
 
 
-def start_rollout(env, commands: torch.Tensor, seconds: float):
-    """Prepare ``env`` for a ``seconds``-long evaluation rollout and reset it: no time-outs within it, no random
-    pushes (the protocol applies its own), ``commands`` (N, 3) held across resets, nothing learning. Returns the
-    first observations."""
-    env.collect_training_data = False
-    env.max_episode_length = int(np.ceil((seconds + 1.0) / env.dt))
-    env.push_interval_steps = 0
-    env.hold_commands(commands)
-    return env.reset()
+def protocol(name: str) -> Protocol:
+    """The protocol ``name``; ValueError naming the choices otherwise."""
+    if name not in PROTOCOLS:
+        raise ValueError(f"unknown protocol {name!r}; choose from {', '.join(PROTOCOLS)}")
+    return PROTOCOLS[name]
 
 
-MIN_COT_SPEED = 0.1
-"""Mean planar speed [m/s] below which no cost of transport is reported."""
-POWER_KEYS = ("p_cost", "p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs",
-              "p_joule_wheels")  # fmt: skip
-"""Per-robot power outputs of the simulator (``env.tv``) that a task averages [W]."""
+def make_options(name: str, **values) -> ProtocolOptions:
+    """Options of protocol ``name``: its defaults, then ``values``."""
+    p = protocol(name)
+    return p.options(**{**p.defaults, **values})
 
 
-class TaskMetrics:
-    """Running sums of one task's tracking and power metrics over N robots: :meth:`add` once per measured policy
-    step, :meth:`summary` for the means over all robots and steps."""
-
-    def __init__(self, task: str, commands: torch.Tensor):
-        if task not in TASKS:
-            raise ValueError(f"unknown task {task!r}; choose from {', '.join(TASKS)}")
-        self.task, self.axis, self.cmd = task, TASKS[task][0], commands
-        n, dev = commands.shape[0], commands.device
-        self.sq_axes = torch.zeros(n, 3, device=dev)
-        self.abs_err = torch.zeros(n, device=dev)
-        self.speed = torch.zeros(n, device=dev)
-        self.power = {k: torch.zeros(n, device=dev) for k in POWER_KEYS}
-        self.steps = 0
-
-    def add(self, velocity: torch.Tensor, power: dict) -> None:
-        """``velocity`` (N, 3): measured (v_x, v_y, w_z) in the base frame; ``power``: (N,) tensors of
-        :data:`POWER_KEYS` [W]."""
-        err = velocity - self.cmd
-        self.sq_axes += err**2
-        self.abs_err += err[:, self.axis].abs()
-        self.speed += torch.linalg.vector_norm(velocity[:, :2], dim=1)
-        for k in POWER_KEYS:
-            self.power[k] += power[k]
-        self.steps += 1
-
-    def summary(self, robot_mass: float) -> dict:
-        """Means over all robots and measured steps: the :class:`EvalResult` fields of tracking and power."""
-        c = max(self.steps, 1)
-        m = {k: float(v.mean()) / c for k, v in self.power.items()}
-        mse_axes = [float(x) / c for x in self.sq_axes.mean(0)]
-        speed = float(self.speed.mean()) / c
-        translating = self.task in ("vx", "vy") and speed >= MIN_COT_SPEED  # a yawing or standing base moves too
-        return {
-            "mse": mse_axes[self.axis], "mean_abs_error": float(self.abs_err.mean()) / c, "mse_axes": mse_axes,
-            "mean_p_cost": m["p_cost"], "mean_p_cost_legs": m["p_cost_legs"], "mean_p_cost_wheels": m["p_cost_wheels"],
-            "mean_p_mech": m["p_mech_legs"] + m["p_mech_wheels"], "mean_p_mech_legs": m["p_mech_legs"],
-            "mean_p_mech_wheels": m["p_mech_wheels"], "mean_p_joule": m["p_joule_legs"] + m["p_joule_wheels"],
-            "mean_speed": speed,
-            "cost_of_transport": m["p_cost"] / (robot_mass * 9.81 * speed) if translating else None,
-        }  # fmt: skip
+def equivalent_command(name: str, opts: ProtocolOptions) -> str:
+    """The command line a user would type for ``opts`` (recorded in the result files)."""
+    p = protocol(name)
+    return command_line(f"train/evaluate.py --protocol {name}", opts, p.defaults)
 
 
-@torch.no_grad()
-def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: float = 0.0,
-             push_interval: float = 15.0, progress=None,
-             command_range: tuple[float, float] | None = None) -> EvalResult:  # fmt: skip
-    """Roll out ``runner.policy`` (``wqwarp.eval.loading.PolicyRunner``) on ``task`` for ``seconds``; ``command_range``
-    replaces the task's range (e.g. :data:`PUSH_TASKS`)."""
-    if task not in TASKS:
-        raise ValueError(f"unknown task {task!r}; choose from {', '.join(TASKS)}")
-    env = runner.env
-    axis, rng = TASKS[task]
-    rng = tuple(command_range) if command_range is not None else rng
-    c = env.cfg.commands
-    train_rng = (c.vx_range, c.vy_range, c.wz_range)[axis]
-    outside = rng[0] < train_rng[0] - 1e-9 or rng[1] > train_rng[1] + 1e-9
-    n = env.num_envs
-    cmd = spread_commands(task, n, rng).to(env.device)
-    obs = start_rollout(env, cmd, seconds)  # every observation, also after a reset, carries the task's command
-    steps = int(round(seconds / env.dt))
-    settle_steps = int(round(settle / env.dt))
-    push_steps = int(round(push_interval / env.dt)) if max_push > 0 else 0
-    fell = torch.zeros(n, dtype=torch.bool, device=env.device)
-    falls = 0
-    env.gait_selector.log_scalars()  # restart the selector's usage counters
-    predictive = hasattr(env.gait_selector, "predict")
-    num_gaits = env.gait_selector.num_gaits
-    pred_sum = torch.zeros(n, max(num_gaits, 1), device=env.device)
-    pred_run = torch.zeros(n, device=env.device)
-    metrics = TaskMetrics(task, cmd)
-    for k in range(steps):
-        if push_steps and k > 0 and k % push_steps == 0:
-            env._push_robots(max_push)
-        if predictive:
-            p_now = env.gait_selector.predict(obs["policy"])
-        obs, _, dones, _ = env.step(runner.policy(obs))
-        running_now = env.active_gait()
-        fell |= dones.bool()
-        falls += int(dones.sum())
-        if k >= settle_steps:
-            if predictive:  # the prediction made from the o_t this step started from
-                pred_sum += p_now
-                pred_run += p_now.gather(1, running_now[:, None]).squeeze(1)
-            b = env.base_state()
-            metrics.add(torch.stack([b["lin_vel"][:, 0], b["lin_vel"][:, 1], b["ang_vel"][:, 2]], 1), env.tv)
-        if progress is not None:
-            progress(k + 1, steps)
-    gait = env.gait_selector.log_scalars()
-    usage = usage_from_scalars(gait)
-    env.hold_commands(None)
-    c = max(metrics.steps, 1)
-    predicted = predicted_running = None
-    if predictive:  # over all robots, as every metric; falls are reported beside them
-        from wqwarp.control.gaits import GAIT_NAMES
+def run_protocol(name: str, opts: ProtocolOptions, log: TextIO = sys.stdout, command: str | None = None) -> dict:
+    """Run protocol ``name`` with ``opts``: validate them and check every output is writable (ValueError with a
+    one-line message, before any work), run, write the JSON result (``opts.json``) and the figure (``png``) with
+    ``command`` as their provenance (default :func:`equivalent_command`). Returns the result."""
+    from wqwarp.cli.args import output_problem
+    from wqwarp.utils.provenance import write_result_json
 
-        mean_pred = (pred_sum / c).mean(0)
-        predicted = {g: float(mean_pred[i]) for i, g in enumerate(GAIT_NAMES[:num_gaits])}
-        predicted_running = float((pred_run / c).mean())
-    return EvalResult(
-        task=task, num_robots=n, seconds=seconds, **metrics.summary(env.sim.robot_mass),
-        upright=float((~fell).float().mean()), falls=falls, max_push=max_push, command_range=list(rng),
-        outside_training_range=outside, gait_usage=usage or None,
-        gait_switches_per_robot_minute=gait.get("Gait/switches_per_robot_minute", 0.0),
-        falls_within_1s_of_switch=int(gait.get("Gait/falls_within_1s_of_switch", 0)),
-        predicted_power=predicted, predicted_power_running=predicted_running,
-    )  # fmt: skip
+    p = protocol(name)
+    opts.validate()
+    for flag, path in opts.outputs().items():
+        if problem := output_problem(path):
+            raise ValueError(f"{flag} {path!r}: {problem}")
+    command = equivalent_command(name, opts) if command is None else command
+    result = p.run(opts, log)
+    if opts.json:
+        write_result_json(opts.json, result, indent=p.json_indent, command=command)
+    png = opts.outputs().get("--png")
+    if png and p.draw is not None:
+        p.draw(result, png, command)
+    return result
+
+
+def build_parser(name: str, description: str, epilog: str, choose: bool) -> argparse.ArgumentParser:
+    """The command line of protocol ``name``; with ``choose`` a ``--protocol`` option picks among all of them."""
+    from wqwarp.cli.args import ArgumentParser
+
+    p = protocol(name)
+    if choose:
+        epilog += "\n\nProtocols (--protocol NAME --help lists its options):\n" + "\n".join(
+            textwrap.fill(q.doc, 116, initial_indent=f"  {q.name:<10} ", subsequent_indent=" " * 13)
+            for q in PROTOCOLS.values()
+        )
+    parser = ArgumentParser(description=description, epilog=epilog,
+                            formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    if choose:
+        parser.add_argument("--protocol", choices=tuple(PROTOCOLS), default="tracking",
+                            help="evaluation protocol (default tracking; listed below)")  # fmt: skip
+    add_options(parser, p.options, p.defaults)
+    return parser
+
+
+def main(argv: list[str] | None = None, name: str | None = None, doc: str = "") -> int:
+    """Command-line entry: protocol ``name``, or the one ``--protocol`` names (default tracking) when None. ``doc``:
+    the script's docstring (its first paragraph is the description, the rest the epilog). Exit code 2 with one line
+    ``error: ...`` for bad options, an unwritable output or a checkpoint that cannot be evaluated."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    choose = name is None
+    if choose:
+        pre = argparse.ArgumentParser(add_help=False)
+        pre.add_argument("--protocol", default="tracking")
+        name = pre.parse_known_args(argv)[0].protocol
+        name = name if name in PROTOCOLS else "tracking"  # the full parser reports an unknown one
+    description, _, epilog = doc.partition("\n\n")
+    ns = build_parser(name, description, epilog, choose).parse_args(argv)
+    from wqwarp import quiet_warp
+
+    quiet_warp()
+    try:
+        run_protocol(name, from_namespace(protocol(name).options, ns), command=" ".join([sys.argv[0], *argv]))
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    return 0

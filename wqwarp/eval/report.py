@@ -9,13 +9,11 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import shutil
 import statistics
 
-PAPER_NAMES = {"ours": "Ours", "baseline": "Baseline", "pmtg": "PMTG",
-               "no_wheel_vel": "Ours w/o nominal wheel velocity", "no_predictor": "Ours w/o switching"}  # fmt: skip
-"""Preset -> the column name of the paper's Table III."""
+from wqwarp.rl.presets import PAPER_NAMES
+
 TABLE3_ORDER = ("ours", "baseline", "pmtg", "no_wheel_vel", "no_predictor")
 PAPER_TABLE3 = {
     0.5: {"stand": (100.0, 95.6, 68.5, 96.5, 84.3), "vx": (100.0, 84.8, 67.8, 92.7, 82.8),
@@ -144,14 +142,12 @@ def _train_info(work: str, preset: str, seed: int) -> dict:
     cfg = _load(os.path.join(d, "config.json"))
     if cfg:
         info["args"] = cfg.get("args")
-    log = os.path.join(work, "train", f"{preset}_s{seed}.log")
-    if os.path.isfile(log):
-        with open(log, encoding="utf-8", errors="replace") as f:
-            text = f.read()
-        runs = re.findall(r"\| (\d+) iterations in (\d+):(\d\d):(\d\d)", text)
-        info["wall_time_s"] = sum(int(h) * 3600 + int(m) * 60 + int(s) for _, h, m, s in runs) if runs else None
-        fin = re.findall(r"mean episode reward ([-\d.]+)", text)
-        info["final_mean_reward"] = float(fin[-1]) if fin else None
+    from wqwarp.rl.progress import read_metrics
+
+    rows = read_metrics(d)  # one row per iteration, over the run and its resumptions
+    if rows:
+        info["wall_time_s"] = sum(r.get("wall_s") or 0.0 for r in rows)
+        info["final_mean_reward"] = rows[-1].get("mean_reward")
     return info
 
 
@@ -263,7 +259,7 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     lines = [
         f"# Results: reproduction of the paper's evaluation ({budget_name} budget)",
         "",
-        f"Written by `python train/reproduce.py --budget {budget_name}` (this page: `wqwarp/report.py`) at commit "
+        f"Written by `python train/reproduce.py --budget {budget_name}` (this page: `wqwarp/eval/report.py`) at commit "
         f"`{(git.get('commit') or 'unknown')[:12]}`{' (uncommitted changes)' if git.get('dirty') else ''}; seeds "
         f"{', '.join(map(str, summary['seeds']))}. Every number below comes from a JSON in `{rel}/` that records the "
         "command that produced it, its commit, seed, resolved configuration and wall time; `results.json` collects "

@@ -1,78 +1,56 @@
-"""One config tree for the residual-RL environment and training, and the paper's methods as presets.
+"""One config tree for the residual-RL environment and training (the paper's methods are presets of it:
+``wqwarp.rl.presets``).
 
-Every field carries its unit and source. Code reads behaviour fields (``action.use_nominal_legs``,
-``gait.selection``, ...), never a preset's name. Presets return fresh objects: nothing shared is mutated.
-
-The paper's five methods (Sec. IV):
-    baseline      no nominal gait; actions are joint position offsets and wheel velocities; no residual penalty
-    pmtg          fixed trotting gait, wheel velocities from the policy only (no nominal wheel velocities)
-    no_predictor  fixed augmented trotting gait with nominal wheel velocities ("Ours w/o predictive module")
-    no_wheel_vel  predictive gait selection, no nominal wheel velocities
-    ours          predictive gait selection with nominal wheel velocities (the default of ``train/ppo_newton.py``)
+Every field carries its unit and source, in the docstring under it (which is also its ``--help`` on the command
+line, ``wqwarp.cli.config_args``). Code reads behaviour fields (``action.use_nominal_legs``, ``gait.selection``,
+...), never a preset's name. Choices are ``Literal`` types, checked when set; each section checks its numbers when
+built (``wqwarp.utils.checked_config``). No physics engine and no torch are imported here.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import typing
 from dataclasses import dataclass, field
+from typing import Literal
 
+from wqwarp.control.gaits import TABLE_I, Gait, load_tuned_gait, with_gait
+from wqwarp.rl.rewards import REWARD_TERMS, TABLE_II, RewardTerm  # noqa: F401  (REWARD_TERMS: re-exported)
 from wqwarp.sim.config import SimConfig
+from wqwarp.utils.checked_config import CheckedConfig, check_positive, check_ranges, require
 
-REWARD_TERMS: tuple[str, ...] = (
-    "track_vx",
-    "track_vy",
-    "track_wz",
-    "residual",
-    "orientation",
-    "lin_vel_z",
-    "ang_vel_xy",
-    "joint_acc",
-    "torques",
-    "action_smoothness",
-    "collision",
-    "energy",
+GaitSelection = Literal["none", "fixed", "predictive"]
+"""How each robot's nominal gait is chosen (:attr:`GaitConfig.selection`)."""
+PowerNormalization = Literal["mean", "watts"]
+"""What the softmax temperature divides (:attr:`PredictorConfig.power_normalization`)."""
+TemperatureShape = Literal["exponential", "linear", "cosine"]
+"""Interpolation of tau between its ends (:attr:`PredictorConfig.temperature_shape`)."""
+EvaluationSelection = Literal["argmin", "sample"]
+"""Gait selection outside training (:attr:`PredictorConfig.evaluation_selection`)."""
+PhaseResidualMode = Literal["offset", "increment"]
+"""How the phase residual enters the gait phase (:attr:`ActionConfig.phase_residual_mode`)."""
+TEMPERATURE_SHAPES: tuple[str, ...] = typing.get_args(TemperatureShape)
+
+
+def _reward_weights(self, terms: tuple[RewardTerm, ...] = TABLE_II) -> list[float]:
+    """w_k of each of ``terms`` in order: the field of that name, or the term's default weight for a term defined
+    outside the package (not a field)."""
+    return [float(getattr(self, t.name, t.weight)) for t in terms]
+
+
+RewardConfig = dataclasses.make_dataclass(
+    "RewardConfig",
+    [(t.name, float, field(default=t.weight, metadata={"doc": t.doc})) for t in TABLE_II]
+    + [("tracking_sigma", float, field(default=4.0, metadata={"doc": "The 4 in exp(-4 err^2) [1/(m/s)^2]."}))],
+    namespace={"weights": _reward_weights, "__module__": __name__},
 )
-"""Reward terms of the paper's Table II, in the order of the reward kernel's output columns."""
+RewardConfig.__doc__ = """Weights of the paper's Table II, one field per term of the registry ``wqwarp.rl.rewards``
+(the fields are derived from it). Each term is multiplied by its weight and by the policy step dt (legged_gym
+convention), summed per step; a zero weight skips the term. Definitions in ``wqwarp.kernels.rewards``."""
 
 
 @dataclass
-class RewardConfig:
-    """Weights of the paper's Table II. Each term is multiplied by its weight and by the policy step dt (legged_gym
-    convention), summed per step; a zero weight skips the term. Definitions in ``wqwarp.kernels.rewards``."""
-
-    track_vx: float = 2.0
-    """exp(-4 (v_x^cmd - v_x)^2), base frame."""
-    track_vy: float = 2.0
-    """exp(-4 (v_y^cmd - v_y)^2)."""
-    track_wz: float = 3.0
-    """exp(-4 (w^cmd - w_z)^2)."""
-    residual: float = -0.3
-    """||a_t|| (L2 norm of the raw action)."""
-    orientation: float = -2.0
-    """||g_xy||^2, projected gravity."""
-    lin_vel_z: float = -2.0
-    """v_z^2."""
-    ang_vel_xy: float = -0.05
-    """||w_xy||^2."""
-    joint_acc: float = -2.5e-7
-    """||qdd||^2 over the 16 joints, finite difference over a policy step."""
-    torques: float = -1e-5
-    """||tau||^2."""
-    action_smoothness: float = -0.01
-    """||a_t + a_{t-2} - 2 a_{t-1}||^2."""
-    collision: float = -2.0
-    """Number of trunk / thigh / calf bodies touching the ground."""
-    energy: float = -1e-5
-    """||tau * qd||^2."""
-    tracking_sigma: float = 4.0
-    """The 4 in exp(-4 err^2) [1/(m/s)^2]."""
-
-    def weights(self) -> list[float]:
-        return [float(getattr(self, k)) for k in REWARD_TERMS]
-
-
-@dataclass
-class CommandConfig:
+class CommandConfig(CheckedConfig):
     """Velocity commands (v_x, v_y, w_z) in the base frame, resampled during an episode."""
 
     vx_range: tuple[float, float] = (-1.5, 1.5)
@@ -91,26 +69,52 @@ class CommandConfig:
     zero_prob: float = 0.1
     """Probability of a zero command (standing still)."""
 
+    def check(self) -> None:
+        check_ranges(self, "vx_range", "vy_range", "wz_range")
+        check_positive(self, "resampling_time")
+        for n in ("single_axis_prob", "zero_prob"):
+            require(0.0 <= getattr(self, n) <= 1.0, f"CommandConfig.{n}", f"must be in [0, 1], got {getattr(self, n)}")
+
 
 @dataclass
-class GaitConfig:
+class GaitConfig(CheckedConfig):
     """Nominal gait and its selection."""
 
-    selection: str = "fixed"
+    selection: GaitSelection = "fixed"
     """``fixed``: always ``fixed_gait``; ``none``: no nominal gait (baseline); ``predictive``: the power predictor
     picks each robot's gait by softmax sampling (``wqwarp.rl.gait_selection``)."""
     fixed_gait: str = "trotting"
-    """Gait from the paper's Table I used when ``selection == 'fixed'`` (and at start-up with ``predictive``)."""
+    """Gait of ``library`` used when ``selection == 'fixed'`` (and at start-up with ``predictive``)."""
     body_height: float = 0.2
     """h_b: foot point (calf end) below the hip in stance [m] (authors' generator: body_height 0.2 m)."""
     swing_height: float = 0.1
     """h_s [m] (authors' generator: max_clearance 0.1 m)."""
     swing_x_amplitude: float = 0.05
     """Horizontal swing amplitude of the foot point [m] (authors' generator: max_horizontal_offset 0.05 m)."""
+    library: tuple[Gait, ...] = TABLE_I
+    """The nominal gait library, index = gait id (default: the paper's Table I, ``wqwarp.control.gaits``). It sets
+    the privileged one-hot size and the predictor's outputs, and is stored in checkpoints."""
+
+    def __post_init__(self) -> None:
+        self.library = tuple(g if isinstance(g, Gait) else Gait.from_dict(g) for g in self.library)  # from a dict
+        super().__post_init__()
+
+    def check(self) -> None:
+        names = [g.name for g in self.library]
+        require(bool(names) and len(set(names)) == len(names), "GaitConfig.library",
+                f"needs at least one gait and unique names, got {names}")  # fmt: skip
+        require(self.fixed_gait in names, "GaitConfig.fixed_gait",
+                f"{self.fixed_gait!r} is not in the library ({', '.join(names)})")  # fmt: skip
+
+    def with_tuned(self, path: str, name: str | None = None) -> GaitConfig:
+        """A copy whose library holds the gait tuned on the differentiable path (``tools/optimize_gait.py`` JSON,
+        ``wqwarp.control.gaits.load_tuned_gait``), replacing the library gait of its name or added as ``name``."""
+        gait = load_tuned_gait(path, self.library, name)
+        return dataclasses.replace(self, library=with_gait(self.library, gait))
 
 
 @dataclass
-class PredictorConfig:
+class PredictorConfig(CheckedConfig):
     """Predictive gait selection (paper, "Predictive Energy-Aware Nominal Gait Selection"): an MLP predicts each
     gait's mean p_cost over the next ``horizon_s`` from o_t; gaits are sampled with probabilities softmax(-p/tau).
     The paper gives no values for the temperature, the network or its training; ours are stated here."""
@@ -120,10 +124,10 @@ class PredictorConfig:
     decision_interval_s: float = 1.0
     """Time a robot runs its selected gait before the next selection [s], counted from when the gait took effect
     (a switch waits for the library's continuity rule). Equal to the horizon, so each selection yields one window."""
-    power_normalization: str = "mean"
+    power_normalization: PowerNormalization = "mean"
     """What tau divides: ``mean`` (default) p_est / mean over gaits of p_est, per robot, so tau is a fraction of
     the robot's mean predicted power; ``watts`` p_est itself, the paper's formula taken literally. The argmin, and
-    so evaluation and export, is the same for both. Measured (README, "Gait selection"): with ``watts`` and tau from
+    so evaluation and export, is the same for both. Measured (docs/method.md): with ``watts`` and tau from
     100 W, p_cost falls from about 1200 W to 30 W during training, so any fixed tau is too cold early or too hot
     late; the run converged on driving for 98 % of robot-steps by iteration 130 (tau 54 W) and stopped exploring
     the legged gaits."""
@@ -134,9 +138,9 @@ class PredictorConfig:
     """tau at the end of the annealing: a gait 10 % of the mean power dearer is picked e^-2 = 0.14 times as often."""
     temperature_iterations: int = 2000
     """PPO iterations over which tau goes from start to end; constant afterwards."""
-    temperature_shape: str = "exponential"
+    temperature_shape: TemperatureShape = "exponential"
     """``exponential`` (geometric), ``linear`` or ``cosine`` interpolation between the ends."""
-    evaluation_selection: str = "argmin"
+    evaluation_selection: EvaluationSelection = "argmin"
     """Selection outside training (evaluation, playback, export): ``argmin`` (tau -> 0) or ``sample`` (tau at the
     checkpoint's schedule position)."""
     hidden_dims: tuple[int, ...] = (128, 64)
@@ -149,19 +153,28 @@ class PredictorConfig:
     holdout_fraction: float = 0.1
     """Share of windows kept out of training to measure the relative error per gait."""
 
+    def check(self) -> None:
+        check_positive(self, "horizon_s", "decision_interval_s", "temperature_start", "temperature_end",
+                       "learning_rate", "batch_size", "buffer_size")  # fmt: skip
+        check_positive(self, "temperature_iterations", "updates_per_iteration", strict=False)
+        require(0.0 <= self.holdout_fraction < 1.0, "PredictorConfig.holdout_fraction",
+                f"must be in [0, 1), got {self.holdout_fraction}")  # fmt: skip
+        require(len(self.hidden_dims) > 0 and min(self.hidden_dims) >= 1, "PredictorConfig.hidden_dims",
+                f"must be positive layer sizes, got {self.hidden_dims}")  # fmt: skip
+
 
 @dataclass
-class ActionConfig:
+class ActionConfig(CheckedConfig):
     """How the policy's action maps to leg and wheel targets (authors' public harness scales)."""
 
     use_nominal_legs: bool = True
     """Legs: p_des = p_n + dp -> IK -> PD (False: baseline joint-offset actions around the default pose)."""
     use_nominal_wheels: bool = True
     """Wheels: v_des = v_n + dv (False: v_des = dv, as PMTG and 'w/o nominal wheel velocity')."""
-    phase_residual_mode: str = "offset"
+    phase_residual_mode: PhaseResidualMode = "offset"
     """How dphi enters the phase: ``offset`` (an offset from the gait clock, phi = (phi0 + f t + dphi) mod 1, as the
     authors' generator PMTG.py does; the default) or ``increment`` (added to the clock every policy step, a phase
-    rate). Measured (README, "Phase residual"): with ``increment`` the policy learns dphi = -f dt, which stops the
+    rate). Measured (docs/method.md): with ``increment`` the policy learns dphi = -f dt, which stops the
     gait clock; the legs stand still, the "fixed trot" becomes a driving gait (cheap: 7.6 W standing) and lateral
     motion becomes impossible. ``offset`` keeps the gait the preset names."""
     phase_scale: float = 0.2
@@ -181,31 +194,42 @@ class ActionConfig:
     clip_actions: float = 10.0
     """Raw actions are clipped to +-this before scaling."""
 
+    def check(self) -> None:
+        check_positive(self, "phase_clip", "foot_clip", "wheel_clip", "clip_actions")
+
 
 @dataclass
-class ObservationConfig:
-    """Observation scales and noise (legged_gym-style, documented in ``wqwarp.rl.env``)."""
+class ObservationConfig(CheckedConfig):
+    """Observation scales and noise (legged_gym-style; the terms that read them: ``wqwarp.rl.observations``)."""
 
     lin_vel_scale: float = 2.0
+    """Scale of linear velocities: the v_x, v_y commands, the estimate z_t and the critic's true velocity [s/m]."""
     ang_vel_scale: float = 0.25
+    """Scale of angular velocities: the base angular velocity and the w_z command [s/rad]."""
     joint_vel_scale: float = 0.05
+    """Scale of the 16 joint velocities [s/rad]."""
     wheel_speed_scale: float = 0.05
-    """Scale of nominal wheel velocities in p_t."""
+    """Scale of nominal wheel velocities in p_t [s/rad]."""
     noise: bool = True
     """Add uniform noise to the sensor part of the actor observation."""
     noise_ang_vel: float = 0.2
-    """[rad/s]"""
+    """Noise amplitude of the base angular velocity [rad/s]."""
     noise_gravity: float = 0.05
+    """Noise amplitude of the projected gravity [-]."""
     noise_joint_pos: float = 0.01
-    """[rad]"""
+    """Noise amplitude of the leg joint positions [rad]."""
     noise_joint_vel: float = 1.5
-    """[rad/s]"""
+    """Noise amplitude of the joint velocities [rad/s]."""
     history_length: int = 6
     """H, the estimator's observation history (paper: H = 6)."""
 
+    def check(self) -> None:
+        check_positive(self, "history_length")
+        check_positive(self, "noise_ang_vel", "noise_gravity", "noise_joint_pos", "noise_joint_vel", strict=False)
+
 
 @dataclass
-class EstimatorConfig:
+class EstimatorConfig(CheckedConfig):
     """MLP state estimator z_t = (v_x, v_y, h) from the last H proprioceptive observations."""
 
     hidden_dims: tuple[int, ...] = (128, 64)
@@ -216,9 +240,12 @@ class EstimatorConfig:
     use_true_state: bool = False
     """Debug switch: feed the true (v_x, v_y, h) to the policy instead of the estimate."""
 
+    def check(self) -> None:
+        check_positive(self, "learning_rate", "epochs", "batch_size")
+
 
 @dataclass
-class DomainRandConfig:
+class DomainRandConfig(CheckedConfig):
     """Randomised per robot at start-up (friction, restitution, mass) and pushes during episodes."""
 
     friction_range: tuple[float, float] = (0.5, 1.25)
@@ -238,9 +265,13 @@ class DomainRandConfig:
     """Sliding friction of every contact when ``enabled`` is off (evaluation) [-]; the authors' MuJoCo model uses
     0.6 (``constants.AUTHORS_GROUND_FRICTION``)."""
 
+    def check(self) -> None:
+        check_ranges(self, "friction_range", "restitution_range", "added_mass_range", "motor_strength_range")
+        check_positive(self, "push_max_vel", "nominal_friction", strict=False)
+
 
 @dataclass
-class EnvConfig:
+class EnvConfig(CheckedConfig):
     """The residual-RL environment."""
 
     sim: SimConfig = field(default_factory=SimConfig)
@@ -255,10 +286,17 @@ class EnvConfig:
     predictor: PredictorConfig = field(default_factory=PredictorConfig)
     domain_rand: DomainRandConfig = field(default_factory=DomainRandConfig)
     seed: int = 1
+    """Seed of the env's random streams (spawn yaws, commands, pushes, sampled gaits); offset by the rank under
+    torchrun."""
+
+    def check(self) -> None:
+        check_positive(self, "episode_length_s")
+        require(self.gait.selection != "none" or not self.action.use_nominal_legs, "ActionConfig.use_nominal_legs",
+                "needs a nominal gait (gait.selection != 'none')")  # fmt: skip
 
 
 @dataclass
-class TrainConfig:
+class TrainConfig(CheckedConfig):
     """rsl-rl PPO settings (legged_gym defaults unless noted)."""
 
     num_steps_per_env: int = 24
@@ -278,6 +316,10 @@ class TrainConfig:
     desired_kl: float = 0.01
     clip_param: float = 0.2
 
+    def check(self) -> None:
+        check_positive(self, "num_steps_per_env", "max_iterations", "save_interval", "num_learning_epochs",
+                       "num_mini_batches", "learning_rate", "init_noise_std")  # fmt: skip
+
     def rsl_rl_dict(self) -> dict:
         """The runner configuration rsl-rl 5.5.1 expects (asymmetric critic through ``obs_groups``)."""
         dist = {"class_name": "GaussianDistribution", "init_std": self.init_noise_std, "std_type": "scalar"}
@@ -289,7 +331,7 @@ class TrainConfig:
                       "obs_normalization": True, "distribution_cfg": dist},
             "critic": {"class_name": "MLPModel", "hidden_dims": list(self.critic_hidden_dims), "activation": "elu",
                        "obs_normalization": True},
-            "algorithm": {"class_name": "PPO", "learning_rate": self.learning_rate,
+            "algorithm": {"class_name": "wqwarp.rl.algorithm:WqPPO", "learning_rate": self.learning_rate,
                           "num_learning_epochs": self.num_learning_epochs, "num_mini_batches": self.num_mini_batches,
                           "clip_param": self.clip_param, "gamma": self.gamma, "lam": self.lam,
                           "entropy_coef": self.entropy_coef, "desired_kl": self.desired_kl, "schedule": "adaptive",
@@ -297,52 +339,6 @@ class TrainConfig:
             "logger": "tensorboard",
             "check_for_nan": True,
         }  # fmt: skip
-
-
-def _baseline() -> EnvConfig:
-    cfg = EnvConfig()
-    cfg.gait = GaitConfig(selection="none")
-    cfg.action = ActionConfig(use_nominal_legs=False, use_nominal_wheels=False)
-    cfg.reward = RewardConfig(residual=0.0)  # the paper omits the residual penalty for the baseline
-    return cfg
-
-
-def _pmtg() -> EnvConfig:
-    cfg = EnvConfig()
-    cfg.gait = GaitConfig(selection="fixed", fixed_gait="trotting")
-    cfg.action = ActionConfig(use_nominal_wheels=False)
-    return cfg
-
-
-def _no_predictor() -> EnvConfig:
-    cfg = EnvConfig()
-    cfg.gait = GaitConfig(selection="fixed", fixed_gait="trotting")
-    return cfg
-
-
-def _no_wheel_vel() -> EnvConfig:
-    cfg = EnvConfig()
-    cfg.gait = GaitConfig(selection="predictive")
-    cfg.action = ActionConfig(use_nominal_wheels=False)
-    return cfg
-
-
-def _ours() -> EnvConfig:
-    cfg = EnvConfig()
-    cfg.gait = GaitConfig(selection="predictive")
-    return cfg
-
-
-PRESETS = {"baseline": _baseline, "pmtg": _pmtg, "no_predictor": _no_predictor, "no_wheel_vel": _no_wheel_vel,
-           "ours": _ours}
-"""Preset name -> factory of a fresh :class:`EnvConfig`."""
-
-
-def make_preset(name: str) -> EnvConfig:
-    """A fresh config of preset ``name`` (ValueError naming the known presets otherwise)."""
-    if name not in PRESETS:
-        raise ValueError(f"unknown preset {name!r}; known presets: {', '.join(PRESETS)}")
-    return PRESETS[name]()
 
 
 def to_dict(cfg) -> dict:
@@ -379,12 +375,13 @@ def from_dict(cls, data, where: str = ""):
 
 
 MIGRATIONS: tuple[tuple[str, object, str], ...] = (
-    ("action.phase_residual_mode", "increment", "the only reading before the setting existed (issue 8)"),
+    ("action.phase_residual_mode", "increment", "the only reading before the setting existed"),
     ("predictor.power_normalization", "watts", "the literal formula, the only one before the setting existed"),
     ("sim.joint_model", "asset", "the USD's joint model, the only one before the setting existed"),
     ("domain_rand.nominal_friction", 1.0, "the friction without randomisation before the setting existed"),
     ("sim.unstable_position_limit", 1.0e3, "the divergence guard's default; before it, a diverged robot went unseen"),
     ("sim.unstable_velocity_limit", 1.0e3, "the divergence guard's default; before it, a diverged robot went unseen"),
+    ("gait.library", [dataclasses.asdict(g) for g in TABLE_I], "Table I, the only library before it was a setting"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
 checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""

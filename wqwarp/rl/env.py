@@ -2,25 +2,14 @@
 
 Lifecycle of :meth:`WheeledGo1Env.step`: actions -> (nominal gait + residuals -> IK -> targets) -> physics
 (decimation x (actuation, power, MuJoCo)) -> rewards (``wqwarp.kernels.rewards``) -> terminations, gait-selector
-bookkeeping and resets -> commands and pushes -> estimator -> observations -> gait selection on o_t
-(``wqwarp.rl.gait_selection``). Nothing learns inside ``step``: with ``collect_training_data`` set the env only stores
-training data for the estimator and the power predictor, which the runner fits. Simulator arrays cross to torch
-zero-copy.
+bookkeeping and resets -> commands and pushes (``wqwarp.rl.commands``, ``wqwarp.rl.events``) -> estimator ->
+observations -> gait selection on o_t (``wqwarp.rl.gait_selection``). Nothing learns inside ``step``: with
+``collect_training_data`` set the env only stores training data for the estimator and the power predictor, which the
+runner fits. Simulator arrays cross to torch zero-copy.
 
-Actor observation o_t (paper, "Observation Space of the Actor"), in this order (:func:`observation_layout`):
-    base_ang_vel (3)  base angular velocity, base frame, x0.25 [rad/s]
-    gravity (3)       projected gravity, base frame [-]
-    leg_pos (12)      leg joint positions minus the default pose [rad]
-    joint_vel (16)    all 16 joint velocities x0.05 [rad/s]
-    gait (18)         p_t: sin(2 pi phi) (4), cos(2 pi phi) (4), phase residuals (4), f [Hz], DF_swing, nominal
-                      wheel speeds x0.05 (4) [rad/s]; zeros without a nominal gait
-    estimate (3)      z_t: estimated v_x, v_y x2 [m/s] and base height [m]
-    command (3)       v_x, v_y x2 [m/s], w_z x0.25 [rad/s]
-    prev_action (A), prev2_action (A)   a_{t-1}, a_{t-2}; A = 20 (16 for the baseline)
-The paper states previous actions of dimension 22 while its action list sums to 20; we use the action size.
-Noise (uniform, ``ObservationConfig``) is added to the sensor part. Critic observation = actor observation plus
-privileged x_t: true base velocity (3, base frame), height, friction, restitution, added mass, wheel contact forces
-(4, /100 N), the current push (2) [m/s], running gait one-hot (3; zeros without a nominal gait).
+Observation terms (actor o_t with the estimate z_t, critic x_t, their mirrors) are the registry
+``wqwarp.rl.observations``; reward terms the registry ``wqwarp.rl.rewards`` (kernel funcs in
+``wqwarp.kernels.rewards``); the gait library is ``cfg.gait.library``.
 """
 
 from __future__ import annotations
@@ -33,49 +22,28 @@ import warp as wp
 from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
-from wqwarp.control.gaits import GAIT_LIBRARY, GAIT_NAMES, gait_index
+from wqwarp.control.gaits import gait_index
 from wqwarp.control.nominal import NominalGait
 from wqwarp.kernels.actions import joint_offset_targets, residual_targets
-from wqwarp.kernels.rewards import compute_rewards
-from wqwarp.rl.config import REWARD_TERMS, EnvConfig
+from wqwarp.kernels.rewards import RewardInputs, make_reward_kernel
+from wqwarp.rl import events
+from wqwarp.rl import observations as obs_terms
+from wqwarp.rl.commands import sample_commands, uniform
+from wqwarp.rl.config import EnvConfig
 from wqwarp.rl.estimator import EstimatorTrainer, StateEstimator
 from wqwarp.rl.gait_selection import make_gait_selector
+from wqwarp.rl.observations import ACTOR_TERMS, ESTIMATE, PRIVILEGED_TERMS
+from wqwarp.rl.rewards import TABLE_II, RewardTerm, check_terms
 from wqwarp.robot import constants as C
 from wqwarp.sim.simulator import Simulator
-
-PRIVILEGED_DIM = 3 + 1 + 1 + 1 + 1 + 4 + 2 + len(GAIT_LIBRARY)
-
-
-def observation_layout(num_actions: int) -> list[tuple[str, int]]:
-    """(name, size) of each part of the actor observation, in order."""
-    return [
-        ("base_ang_vel", 3), ("gravity", 3), ("leg_pos", 12), ("joint_vel", 16), ("gait", 18), ("estimate", 3),
-        ("command", 3), ("prev_action", num_actions), ("prev2_action", num_actions),
-    ]  # fmt: skip
-
-
-def decode_observation(obs: torch.Tensor, num_actions: int) -> dict[str, torch.Tensor]:
-    """Split actor observations (..., D) into their named parts (inverse of the layout)."""
-    out, i = {}, 0
-    for name, n in observation_layout(num_actions):
-        out[name] = obs[..., i : i + n]
-        i += n
-    if i != obs.shape[-1]:
-        raise ValueError(f"observation has {obs.shape[-1]} columns, the layout for {num_actions} actions has {i}")
-    return out
-
-
-def quat_rotate_inv(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
-    """Rotate world vectors v (N, 3) into the frame of quaternions q (N, 4) in xyzw order."""
-    xyz, w = q[:, :3], q[:, 3:4]
-    t = 2.0 * torch.cross(xyz, v, dim=-1)
-    return v - w * t + torch.cross(xyz, t, dim=-1)
 
 
 class WheeledGo1Env(VecEnv):
     """rsl-rl vectorized environment of the paper's residual-RL wheeled Go1 (see the module docstring)."""
 
-    def __init__(self, cfg: EnvConfig):
+    def __init__(self, cfg: EnvConfig, reward_terms: tuple[RewardTerm, ...] = TABLE_II):
+        """``reward_terms``: the reward registry (default Table II; a term defined outside the package is added
+        here, its weight the field of ``cfg.reward`` of its name or else its default)."""
         self.cfg = cfg
         self.sim = Simulator(cfg.sim)
         sim = self.sim
@@ -91,15 +59,15 @@ class WheeledGo1Env(VecEnv):
 
         a = cfg.action
         self.residual_mode = a.use_nominal_legs
-        if cfg.gait.selection == "none" and a.use_nominal_legs:
-            raise ValueError("action.use_nominal_legs needs a nominal gait (gait.selection != 'none')")
-        if cfg.gait.selection not in ("none", "fixed", "predictive"):
-            raise ValueError(f"unknown gait.selection {cfg.gait.selection!r}; choose none, fixed or predictive")
+        cfg.validate()  # every section's checks, again after fields were set one by one
         self.num_actions = 20 if self.residual_mode else 16
         self.nominal = None
-        start_gait = gait_index(cfg.gait.fixed_gait)
+        self.gait_names = tuple(g.name for g in cfg.gait.library)
+        """Names of the gait library ``cfg.gait.library`` in gait-id order."""
+        self.num_gaits = len(self.gait_names)
+        start_gait = gait_index(cfg.gait.fixed_gait, cfg.gait.library)
         if cfg.gait.selection != "none":
-            self.nominal = NominalGait(n, sim.device, body_height=cfg.gait.body_height,
+            self.nominal = NominalGait(n, sim.device, library=cfg.gait.library, body_height=cfg.gait.body_height,
                                        swing_height=cfg.gait.swing_height,
                                        swing_x_amplitude=cfg.gait.swing_x_amplitude,
                                        phase_mode=cfg.action.phase_residual_mode)  # fmt: skip
@@ -126,34 +94,50 @@ class WheeledGo1Env(VecEnv):
         self._spawn_q = spawn[None, :]
         self._leg_coords = torch.tensor(sim.layout.actuated_coord[:12], dtype=torch.long, device=dev)
 
-        # Rewards.
-        self.reward_weights = wp.array(np.asarray(cfg.reward.weights(), np.float32), dtype=wp.float32,
-                                       device=sim.device)  # fmt: skip
+        # Rewards: one kernel column per registered term.
+        check_terms(reward_terms)
+        self.reward_names = tuple(t.name for t in reward_terms)
+        """Reward term names in the order of the kernel's columns (``reward_terms_wp``, ``episode_sums``)."""
+        weights = cfg.reward.weights(reward_terms)
+        self.reward_kernel = make_reward_kernel(tuple(t.resolve() for t in reward_terms))
+        self.reward_weights = wp.array(np.asarray(weights, np.float32), dtype=wp.float32, device=sim.device)
         self.reward_wp = wp.zeros(n, dtype=wp.float32, device=sim.device)
-        self.reward_terms_wp = wp.zeros((n, len(REWARD_TERMS)), dtype=wp.float32, device=sim.device)
-        self.episode_sums_wp = wp.zeros((n, len(REWARD_TERMS)), dtype=wp.float32, device=sim.device)
+        self.reward_terms_wp = wp.zeros((n, len(reward_terms)), dtype=wp.float32, device=sim.device)
+        self.episode_sums_wp = wp.zeros((n, len(reward_terms)), dtype=wp.float32, device=sim.device)
         self.reward_buf = wp.to_torch(self.reward_wp)
         self.episode_sums = wp.to_torch(self.episode_sums_wp)
-        self.active_terms = [k for k, w in zip(REWARD_TERMS, cfg.reward.weights(), strict=True) if w != 0.0]
+        self.active_terms = [k for k, w in zip(self.reward_names, weights, strict=True) if w != 0.0]
+        self.reward_inputs = self._reward_inputs()
 
         # Domain randomisation (fixed per robot for the run) and pushes.
         dr = cfg.domain_rand
-        nominal_mu = torch.full((n,), float(dr.nominal_friction), device=dev)
-        self.friction = self._uniform(dr.friction_range, (n,)) if dr.enabled else nominal_mu
-        self.restitution = self._uniform(dr.restitution_range, (n,)) if dr.enabled else torch.zeros(n, device=dev)
-        self.added_mass = self._uniform(dr.added_mass_range, (n,)) if dr.enabled else torch.zeros(n, device=dev)
+        dyn = events.sample_dynamics(dr, n, self.gen, dev)
+        self.friction, self.restitution, self.added_mass = dyn["friction"], dyn["restitution"], dyn["added_mass"]
         sim.set_dynamics(self.friction.cpu().numpy(), self.restitution.cpu().numpy(), self.added_mass.cpu().numpy())
-        if dr.enabled:
-            self.tv["motor_strength"][:] = self._uniform(dr.motor_strength_range, (n, 16))
+        if "motor_strength" in dyn:
+            self.tv["motor_strength"][:] = dyn["motor_strength"]
         self.push_vel = torch.zeros(n, 2, device=dev)
         self.push_interval_steps = int(round(dr.push_interval / self.dt)) if dr.enabled and dr.push_interval > 0 else 0
         self.common_step_counter = 0
         self.resample_steps = max(1, int(round(cfg.commands.resampling_time / self.dt)))
 
-        # Estimator over the last H proprioceptive observations (o_t without z_t).
-        self.obs_layout = observation_layout(self.num_actions)
+        # Observation layouts and mirrors from the registry; the estimator reads the last H proprioceptive
+        # observations (o_t without z_t).
+        dims = obs_terms.Dims(self.num_actions, self.num_gaits)
+        self.obs_layout = obs_terms.layout(ACTOR_TERMS, dims)
+        """(name, size) of each term of the actor observation o_t, in column order."""
+        self.privileged_layout = obs_terms.layout(PRIVILEGED_TERMS, dims)
+        """(name, size) of each term of the privileged x_t (critic: o_t then x_t)."""
         self.num_obs = sum(k for _, k in self.obs_layout)
-        self.proprio_dim = self.num_obs - 3
+        self.privileged_dim = sum(k for _, k in self.privileged_layout)
+        self.estimate_index = obs_terms.estimate_index(dims)
+        """Column of o_t where z_t (3) is inserted into the proprioceptive observation."""
+        self.proprio_dim = self.num_obs - dict(self.obs_layout)[ESTIMATE]
+        self._proprio_terms = tuple(t for t in ACTOR_TERMS if t.name != ESTIMATE)
+        self.obs_mirror = obs_terms.mirror_matrix(ACTOR_TERMS, dims)
+        """(perm, signs) of the left-right mirror of o_t (``wqwarp.rl.observations``)."""
+        self.privileged_mirror = obs_terms.mirror_matrix(PRIVILEGED_TERMS, dims)
+        self.action_mirror = obs_terms.mirror_tensors(obs_terms.action_mirror(self.num_actions))
         H = cfg.obs.history_length
         self.history = torch.zeros(n, H, self.proprio_dim, device=dev)
         self.estimator = StateEstimator(H * self.proprio_dim, tuple(cfg.estimator.hidden_dims)).to(dev)
@@ -161,12 +145,12 @@ class WheeledGo1Env(VecEnv):
                                                   cfg.estimator.batch_size)  # fmt: skip
         self.estimate = torch.zeros(n, 3, device=dev)
         o = cfg.obs
-        self._down = torch.tensor([[0.0, 0.0, -1.0]], device=dev)
-        self._command_scale = torch.tensor([o.lin_vel_scale, o.lin_vel_scale, o.ang_vel_scale], device=dev)
-        self._estimate_scale = torch.tensor([o.lin_vel_scale, o.lin_vel_scale, 1.0], device=dev)
+        self.command_scale = torch.tensor([o.lin_vel_scale, o.lin_vel_scale, o.ang_vel_scale], device=dev)
+        self.estimate_scale = torch.tensor([o.lin_vel_scale, o.lin_vel_scale, 1.0], device=dev)
+        """Scale of z_t = (v_x, v_y, h) in o_t (velocities as the command, the height as is)."""
         # Gait selection: the selector writes the requested gait into nominal.gait_id (its only home).
         requested = wp.to_torch(self.nominal.gait_id) if self.nominal is not None else None
-        self.gait_selector = make_gait_selector(cfg, requested, GAIT_NAMES, start_gait, self.dt, self.num_obs)
+        self.gait_selector = make_gait_selector(cfg, requested, self.gait_names, start_gait, self.dt, self.num_obs)
         self._collect = False
         self.unstable_count = torch.zeros((), dtype=torch.long, device=dev)
         """Robot-steps whose simulation diverged since construction (terminated and reset, ``sim.unstable``)."""
@@ -175,23 +159,22 @@ class WheeledGo1Env(VecEnv):
         self.extras: dict = {}
         self._reset_envs(torch.arange(n, device=dev))
         self._obs = self._observe()
+        got = (self._obs["policy"].shape[1], self._obs["privileged"].shape[1])
+        if got != (self.num_obs, self.privileged_dim):
+            raise ValueError(f"observation terms computed {got} columns, their layouts declare "
+                             f"{(self.num_obs, self.privileged_dim)} (wqwarp.rl.observations)")  # fmt: skip
 
     # --- helpers --------------------------------------------------------------------------------------------------
     def _uniform(self, rng: tuple[float, float], shape) -> torch.Tensor:
-        lo, hi = rng
-        return lo + (hi - lo) * torch.rand(shape, generator=self.gen, device=self.device)
+        return uniform(self.gen, rng, shape, self.device)
 
     def base_state(self) -> dict[str, torch.Tensor]:
-        """True base quantities: quaternion (xyzw), linear / angular velocity in the base frame, height [m]."""
-        q = self.tv["joint_q"][:, 3:7]
-        qd = self.tv["joint_qd"]
-        return {
-            "quat": q,
-            "lin_vel": quat_rotate_inv(q, qd[:, 0:3]),
-            "ang_vel": quat_rotate_inv(q, qd[:, 3:6]),
-            "height": self.tv["joint_q"][:, 2],
-            "gravity": quat_rotate_inv(q, self._down.expand(len(q), 3)),
-        }
+        """True base quantities (views of the simulator's base frame, ``kernels.state.compute_base_frame``):
+        quaternion (xyzw), linear [m/s] / angular [rad/s] velocity and projected gravity in the base frame, height
+        [m], yaw [rad]."""
+        tv = self.tv
+        return {"quat": tv["joint_q"][:, 3:7], "lin_vel": tv["base_lin_vel"], "ang_vel": tv["base_ang_vel"],
+                "height": tv["base_height"], "gravity": tv["projected_gravity"], "yaw": tv["base_yaw"]}  # fmt: skip
 
     # --- rsl-rl interface -----------------------------------------------------------------------------------------
     def get_observations(self) -> TensorDict:
@@ -301,14 +284,21 @@ class WheeledGo1Env(VecEnv):
 
     # --- rewards and logs ----------------------------------------------------------------------------------------
     def _compute_rewards(self) -> torch.Tensor:
-        sim = self.sim
-        wp.launch(compute_rewards, dim=self.num_envs,
-                  inputs=[sim.joint_q, sim.joint_qd, self.commands_wp, self.actions_wp, self.prev_actions_wp,
-                          self.prev2_actions_wp, sim.actuated_qd, self.prev_qd_wp, sim.torque_sq, sim.power_sq,
-                          sim.body_collision, self.reward_weights, self.cfg.reward.tracking_sigma, self.dt],
+        wp.launch(self.reward_kernel, dim=self.num_envs, inputs=[self.reward_inputs, self.reward_weights],
                   outputs=[self.reward_wp, self.reward_terms_wp, self.episode_sums_wp],
-                  device=sim.device)  # fmt: skip
+                  device=self.sim.device)  # fmt: skip
         return self.reward_buf
+
+    def _reward_inputs(self) -> RewardInputs:
+        """The reward kernel's inputs: views of buffers allocated once (simulator and env)."""
+        sim, inp = self.sim, RewardInputs()
+        inp.base_lin_vel, inp.base_ang_vel = sim.base_lin_vel, sim.base_ang_vel
+        inp.projected_gravity, inp.command = sim.projected_gravity, self.commands_wp
+        inp.action, inp.prev_action, inp.prev2_action = self.actions_wp, self.prev_actions_wp, self.prev2_actions_wp
+        inp.actuated_qd, inp.prev_actuated_qd = sim.actuated_qd, self.prev_qd_wp
+        inp.torque_sq, inp.power_sq, inp.body_collision = sim.torque_sq, sim.power_sq, sim.body_collision
+        inp.sigma, inp.dt = self.cfg.reward.tracking_sigma, self.dt
+        return inp
 
     def _step_metrics(self, b: dict, valid: torch.Tensor) -> dict:
         """Means over the robots whose step is ``valid`` (not diverged)."""
@@ -330,7 +320,7 @@ class WheeledGo1Env(VecEnv):
         seconds = torch.clamp(self.episode_length_buf[ids].float() * self.dt, min=self.dt)
         count = ok.sum().clamp(min=1.0)
         log = {}
-        for k, name in enumerate(REWARD_TERMS):
+        for k, name in enumerate(self.reward_names):
             if name in self.active_terms:
                 log[f"Episode_Reward/{name}"] = torch.sum(self.episode_sums[ids, k] / seconds * ok) / count
         early = self.episode_length_buf[ids] < self.max_episode_length
@@ -389,18 +379,7 @@ class WheeledGo1Env(VecEnv):
         if self.held_commands is not None:
             self.commands[ids] = self.held_commands[ids]
             return
-        c = self.cfg.commands
-        k = len(ids)
-        cmd = torch.stack([self._uniform(c.vx_range, (k,)), self._uniform(c.vy_range, (k,)),
-                           self._uniform(c.wz_range, (k,))], dim=1)  # fmt: skip
-        u = torch.rand(k, generator=self.gen, device=self.device)
-        single = u < c.single_axis_prob
-        axis = torch.randint(0, 3, (k,), generator=self.gen, device=self.device)
-        keep = torch.nn.functional.one_hot(axis, 3).float()
-        cmd = torch.where(single[:, None], cmd * keep, cmd)
-        zero = (u >= c.single_axis_prob) & (u < c.single_axis_prob + c.zero_prob)
-        cmd[zero] = 0.0
-        self.commands[ids] = cmd
+        self.commands[ids] = sample_commands(self.cfg.commands, len(ids), self.gen, self.device)
 
     def set_commands(self, commands: torch.Tensor) -> None:
         """Overwrite the commands (N, 3) (v_x, v_y, w_z) in the base frame, e.g. for evaluation."""
@@ -420,48 +399,22 @@ class WheeledGo1Env(VecEnv):
         self.push_vel[:] = dv
         # The impulse is along the trunk's x and y axes, added to the world-frame base velocity in place (a view of
         # Newton's state on the device); the physics is told which coordinates changed.
-        quat = self.tv["joint_q"][:, 3:7]
-        yaw = torch.atan2(2 * (quat[:, 3] * quat[:, 2] + quat[:, 0] * quat[:, 1]),
-                          1 - 2 * (quat[:, 1] ** 2 + quat[:, 2] ** 2))  # fmt: skip
-        c, s = torch.cos(yaw), torch.sin(yaw)
-        qd = self.tv["joint_qd"]
-        qd[:, 0] += c * dv[:, 0] - s * dv[:, 1]
-        qd[:, 1] += s * dv[:, 0] + c * dv[:, 1]
+        self.tv["joint_qd"][:, 0:2] += events.push_to_world(self.tv["base_yaw"], dv)
         self.sim.state_written()
 
     # --- observations ---------------------------------------------------------------------------------------------
-    def _gait_obs(self) -> torch.Tensor:
-        n = self.num_envs
-        if self.nominal is None:
-            return torch.zeros(n, 18, device=self.device)
-        ng = self.nominal
-        phase = wp.to_torch(ng.phase)
-        gid = wp.to_torch(ng.active_gait_id).long()
-        freq = wp.to_torch(ng.arrays.frequency)[gid]
-        df = wp.to_torch(ng.arrays.df_swing)[gid]
-        vn = wp.to_torch(ng.wheel_velocity)
-        if not self.cfg.action.use_nominal_wheels:
-            vn = torch.zeros_like(vn)
-        return torch.cat([torch.sin(2 * math.pi * phase), torch.cos(2 * math.pi * phase),
-                          wp.to_torch(ng.phase_residual), freq[:, None], df[:, None],
-                          vn * self.cfg.obs.wheel_speed_scale], dim=1)  # fmt: skip
-
-    def _noise(self, shape, scale: float) -> torch.Tensor:
+    def noise(self, shape, scale: float) -> torch.Tensor:
+        """Uniform noise in [-scale, scale] from ``self.gen`` (zeros with ``obs.noise`` off or scale 0)."""
         if not self.cfg.obs.noise or scale == 0.0:
             return torch.zeros(shape, device=self.device)
         return (2.0 * torch.rand(shape, generator=self.gen, device=self.device) - 1.0) * scale
 
     def _compute_observations(self) -> TensorDict:
-        o, n = self.cfg.obs, self.num_envs
+        """The registry's terms (``wqwarp.rl.observations``): the proprioceptive terms, the history and the
+        estimate z_t inserted at ``estimate_index``, then the privileged terms."""
+        n = self.num_envs
         b = self.base_state()
-        q = self.tv["actuated_q"]
-        qd = self.tv["actuated_qd"]
-        ang = (b["ang_vel"] + self._noise((n, 3), o.noise_ang_vel)) * o.ang_vel_scale
-        grav = b["gravity"] + self._noise((n, 3), o.noise_gravity)
-        leg = q[:, :12] - self.default_leg_q + self._noise((n, 12), o.noise_joint_pos)
-        vel = (qd + self._noise((n, 16), o.noise_joint_vel)) * o.joint_vel_scale
-        cmd = self.commands * self._command_scale
-        proprio = torch.cat([ang, grav, leg, vel, self._gait_obs(), cmd, self.prev_actions, self.prev2_actions], 1)
+        proprio = torch.cat(obs_terms.compute_terms(self, self._proprio_terms, b), 1)
         # History of proprioceptive observations -> estimator -> z_t.
         self.history = torch.roll(self.history, shifts=-1, dims=1)
         self.history[:, -1] = proprio
@@ -475,17 +428,19 @@ class WheeledGo1Env(VecEnv):
             with torch.no_grad():
                 z = self.estimator(hist)
         self.estimate = z.detach()
-        zs = z * self._estimate_scale
-        split = 3 + 3 + 12 + 16 + 18
+        zs = z * self.estimate_scale
+        split = self.estimate_index
         actor = torch.cat([proprio[:, :split], zs, proprio[:, split:]], 1)
-        gid = torch.nn.functional.one_hot(self.active_gait(), len(GAIT_LIBRARY)).float()
-        if self.nominal is None:
-            gid = torch.zeros_like(gid)
-        priv = torch.cat([
-            b["lin_vel"] * o.lin_vel_scale, b["height"][:, None], self.friction[:, None], self.restitution[:, None],
-            self.added_mass[:, None], self.tv["wheel_force"] / 100.0, self.push_vel, gid,
-        ], 1)  # fmt: skip
+        priv = torch.cat(obs_terms.compute_terms(self, PRIVILEGED_TERMS, b), 1)
         return TensorDict({"policy": actor, "privileged": priv}, batch_size=[n], device=self.device)
+
+    def mirror_observations(self, obs: TensorDict) -> TensorDict:
+        """Left-right mirror of each observation group (``wqwarp.rl.observations.mirror_observations``)."""
+        return obs_terms.mirror_observations(self, obs)
+
+    def mirror_actions(self, actions: torch.Tensor) -> torch.Tensor:
+        """Left-right mirror of actions (..., A) (``wqwarp.rl.observations.action_mirror``)."""
+        return obs_terms.mirror_actions(self, actions)
 
     def close(self) -> None:
         pass

@@ -3,7 +3,8 @@
 Paper, "Estimator Module": an MLP trained by supervised learning in simulation estimates the planar base velocity
 and the base height from the observation history O_t^H (H = 6). Here it is regressed on the rollouts the PPO runner
 collects: the environment stores (history, true state) pairs every step while a training runner collects, and the
-runner fits the MLP after each PPO update (``wqwarp.rl.runner.WqRunner``), never the environment itself.
+algorithm fits the MLP after each PPO update (``wqwarp.rl.algorithm.EstimatorLearner``), never the environment
+itself.
 """
 
 from __future__ import annotations
@@ -36,7 +37,8 @@ class StateEstimator(nn.Module):
 
 
 class EstimatorTrainer:
-    """Collects (history, target) pairs; :meth:`fit` (called by the runner) fits the estimator on them by MSE."""
+    """Collects (history, target) pairs; :meth:`fit` (called by the algorithm after PPO's update) fits the estimator
+    on them by MSE."""
 
     def __init__(self, estimator: StateEstimator, lr: float, epochs: int, batch_size: int):
         self.estimator = estimator

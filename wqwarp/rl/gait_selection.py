@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
+from wqwarp.rl.config import TEMPERATURE_SHAPES
 from wqwarp.rl.estimator import mlp
 
 COMMAND_TYPES: tuple[str, ...] = ("forward", "lateral", "yaw", "mixed", "zero")
@@ -42,7 +43,7 @@ COMMAND_TYPES: tuple[str, ...] = ("forward", "lateral", "yaw", "mixed", "zero")
 COMMAND_ZERO: float = 0.05
 """|command| below which an axis counts as zero for the usage logs [m/s or rad/s]."""
 
-SHAPES: tuple[str, ...] = ("exponential", "linear", "cosine")
+SHAPES: tuple[str, ...] = TEMPERATURE_SHAPES
 
 
 def usage_from_scalars(scalars: dict[str, float]) -> dict[str, float]:
@@ -292,12 +293,6 @@ class PredictiveGaitSelector(FixedGaitSelector):
         n = len(requested)
         self.horizon = max(1, int(round(cfg.horizon_s / policy_dt)))
         self.decision_steps = max(1, int(round(cfg.decision_interval_s / policy_dt)))
-        if cfg.power_normalization not in ("mean", "watts"):
-            raise ValueError(f"predictor.power_normalization must be 'mean' or 'watts', got "
-                             f"{cfg.power_normalization!r}")  # fmt: skip
-        if cfg.evaluation_selection not in ("argmin", "sample"):
-            raise ValueError(f"predictor.evaluation_selection must be 'argmin' or 'sample', got "
-                             f"{cfg.evaluation_selection!r}")  # fmt: skip
         self.schedule = TemperatureSchedule(cfg.temperature_start, cfg.temperature_end, cfg.temperature_iterations,
                                             cfg.temperature_shape)  # fmt: skip
         self.iteration = 0

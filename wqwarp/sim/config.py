@@ -3,23 +3,28 @@ reading a config never loads Newton or MuJoCo)."""
 
 from __future__ import annotations
 
+import typing
 from dataclasses import dataclass
+from typing import Literal
 
 from wqwarp.robot import constants as C
+from wqwarp.utils.checked_config import CheckedConfig, check_positive, require
 
-BACKENDS = ("auto", "mujoco_cpu", "mujoco_warp", "featherstone")
-JOINT_MODELS = ("asset", "authors")
+Backend = Literal["auto", "mujoco_cpu", "mujoco_warp", "featherstone"]
+JointModel = Literal["asset", "authors"]
+BACKENDS: tuple[str, ...] = typing.get_args(Backend)
+JOINT_MODELS: tuple[str, ...] = typing.get_args(JointModel)
 
 
 @dataclass
-class SimConfig:
+class SimConfig(CheckedConfig):
     """Physics and low-level control settings. Units in brackets."""
 
     num_envs: int = 64
     """Number of robots, one per world."""
     device: str = "cpu"
     """Warp device of the Newton model and all buffers: ``cpu`` or ``cuda:N``."""
-    backend: str = "auto"
+    backend: Backend = "auto"
     """``mujoco_cpu`` (mujoco.rollout on all cores), ``mujoco_warp`` (Newton SolverMuJoCo), ``featherstone``
     (Newton SolverFeatherstone with spring-damper contacts, the physics of the differentiable path
     ``wqwarp.diff.rollout``; slow, for few robots), or ``auto``: ``mujoco_cpu`` on the CPU device, ``mujoco_warp`` on
@@ -38,11 +43,11 @@ class SimConfig:
     kp dt / I < 2 and free of ringing for kp dt / I <= 1, I = ``constants.WHEEL_AIRBORNE_INERTIA`` = 2.75e-3 kg m^2.
     kp 0.5 gives 0.91 at dt 0.005 and 0.18 at dt 0.001, so swing wheels neither chatter nor ring at either step;
     kp 2 (the authors' harness gain, whose wheel armature is 0.01) gives 3.6 at dt 0.005: +-6 N m every substep,
-    131 W for four idle wheels. Measured with ``tools/wheel_step_response.py`` (README, "Wheel control")."""
+    131 W for four idle wheels. Measured with ``tools/studies/wheel_step_response.py`` (docs/simulation.md)."""
     wheel_ki: float = 2.0
     """Wheel velocity-PID integral gain [N m/rad]: removes the steady error under a load torque (slopes, friction)
     that the small kp alone would leave. ki 5 overshoots a loaded 0.5 m/s step by 25 %, ki 2 by 16 % (P alone 11 %),
-    with 0.6 % steady error after 2 s (README, "Wheel control")."""
+    with 0.6 % steady error after 2 s (docs/simulation.md, "Wheel control")."""
     wheel_kd: float = 0.0
     """Wheel velocity-PID derivative gain [N m s^2/rad]; 0: any kd acts on a velocity difference (an acceleration)
     and with the substep's explicit update destabilises the airborne loop first."""
@@ -51,7 +56,7 @@ class SimConfig:
     integral can hold a wheel against the ~2 N m scrub torque of skid-steer turning."""
     check_wheel_stability: bool = True
     """Refuse wheel gains whose airborne loop is unstable (kp dt / I >= 2). Off only to study that loop."""
-    joint_model: str = "asset"
+    joint_model: JointModel = "asset"
     """Passive model of the 16 actuated joints: ``asset`` (the USD's: armature 0.01 kg m^2 on the legs and 2.19e-3
     on the wheels, no damping, no dry friction; ``tools/build_wheeled_go1.py`` says why) or ``authors`` (the authors'
     MuJoCo robot: damping 0.01 N m s/rad, armature 0.01 kg m^2 and friction loss 0.2 N m on every joint,
@@ -86,19 +91,26 @@ class SimConfig:
     """Contacts per world for ``mujoco_warp`` (default: Newton's estimate)."""
 
     def resolved_backend(self) -> str:
-        if self.backend not in BACKENDS:
-            raise ValueError(f"unknown backend {self.backend!r}; choose one of {', '.join(BACKENDS)}")
+        """The backend ``auto`` stands for on this device: ``mujoco_cpu`` on the CPU, ``mujoco_warp`` on CUDA."""
         if self.backend != "auto":
             return self.backend
         return "mujoco_cpu" if self.device == "cpu" else "mujoco_warp"
 
+    def check(self) -> None:
+        """Counts and steps positive, gains non-negative, the device a Warp device name (at construction)."""
+        require(self.num_envs >= 1, "SimConfig.num_envs", f"must be >= 1, got {self.num_envs}")
+        require(self.decimation >= 1, "SimConfig.decimation", f"must be >= 1, got {self.decimation}")
+        require(str(self.device) == "cpu" or str(self.device).startswith("cuda"), "SimConfig.device",
+                f"must be cpu or cuda:N, got {self.device!r}")  # fmt: skip
+        check_positive(self, "dt", "solver_iterations", "ls_iterations")
+        check_positive(self, "leg_kp", "leg_kd", "wheel_kp", "wheel_ki", "wheel_kd", "wheel_i_limit", strict=False)
+        for n in ("nthread", "njmax", "nconmax"):
+            v = getattr(self, n)
+            require(v is None or v >= 1, f"SimConfig.{n}", f"must be None or >= 1, got {v}")
+
     def validate(self) -> None:
-        if self.num_envs < 1:
-            raise ValueError(f"num_envs must be >= 1, got {self.num_envs}")
-        if not (self.dt > 0.0 and self.decimation >= 1):
-            raise ValueError(f"need dt > 0 and decimation >= 1, got dt={self.dt}, decimation={self.decimation}")
-        if min(self.wheel_kp, self.wheel_ki, self.wheel_kd, self.wheel_i_limit) < 0.0:
-            raise ValueError("wheel PID gains and integral bound must be >= 0")
+        """:meth:`check` and the airborne wheel loop's stability (the simulator calls it before building)."""
+        self.check()
         margin = self.wheel_kp * self.dt / C.WHEEL_AIRBORNE_INERTIA
         if self.check_wheel_stability and margin >= 2.0:
             raise ValueError(
@@ -106,6 +118,3 @@ class SimConfig:
                 f"(kp dt / I = {margin:.2f} >= 2, I = {C.WHEEL_AIRBORNE_INERTIA:.2e} kg m^2): use "
                 f"wheel_kp < {2.0 * C.WHEEL_AIRBORNE_INERTIA / self.dt:.2f}"
             )
-        if self.joint_model not in JOINT_MODELS:
-            raise ValueError(f"unknown joint_model {self.joint_model!r}; choose one of {', '.join(JOINT_MODELS)}")
-        self.resolved_backend()

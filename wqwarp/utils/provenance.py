@@ -6,7 +6,8 @@ import json
 import os
 import subprocess
 import sys
-import tempfile
+
+from wqwarp.utils.io import atomic_path
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -26,33 +27,23 @@ def git_state() -> dict:
             "tracked_changes": any(not ln.startswith("??") for ln in lines)}  # fmt: skip
 
 
-def write_result_json(path: str, data: dict, indent: int | None = 2) -> None:
-    """Write a result file atomically (temporary file in the same folder, then rename: a crash never leaves a
-    truncated or half-overwritten file), with the command line and :func:`git_state` added unless ``data`` has
-    them."""
-    data = {"command": " ".join(sys.argv), "git": git_state(), **data}
-    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), suffix=".json.tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(data, f, indent=indent)
-            f.write("\n")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+def write_result_json(path: str, data: dict, indent: int | None = 2, command: str | None = None) -> None:
+    """Write a result file atomically (``wqwarp.utils.io.atomic_path``: a crash never leaves a truncated or
+    half-overwritten file), with the command line that made it (``command``; default this process's ``sys.argv``)
+    and :func:`git_state` added unless ``data`` has them."""
+    data = {"command": " ".join(sys.argv) if command is None else command, "git": git_state(), **data}
+    with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8") as f:
+        json.dump(data, f, indent=indent)
+        f.write("\n")
 
 
-def save_figure(fig, path: str, dpi: int = 100) -> None:
-    """Save a matplotlib figure atomically (temporary file, then rename), with the command line and
-    :func:`git_state` in the PNG's metadata (``Description`` and ``Source``; read them with any PNG tool or
-    ``PIL.Image.open(path).info``)."""
+def save_figure(fig, path: str, dpi: int = 100, command: str | None = None) -> None:
+    """Save a matplotlib figure atomically (``wqwarp.utils.io.atomic_path``), with the command line (``command``;
+    default this process's ``sys.argv``) and :func:`git_state` in the PNG's metadata (``Description`` and ``Source``;
+    read them with any PNG tool or ``PIL.Image.open(path).info``)."""
     git = git_state()
     source = f"git {git['commit']}{' (dirty)' if git['dirty'] else ''}"
-    root, ext = os.path.splitext(path)
-    tmp = f"{root}.tmp{ext or '.png'}"
-    try:
-        fig.savefig(tmp, dpi=dpi, metadata={"Description": " ".join(sys.argv), "Source": source})
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    description = " ".join(sys.argv) if command is None else command
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format=os.path.splitext(path)[1][1:] or "png",
+                    metadata={"Description": description, "Source": source})  # fmt: skip

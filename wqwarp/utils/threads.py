@@ -2,9 +2,9 @@
 
 Both pools spin on the same cores. When torch asks for more threads than there are free cores (on a laptop, any other
 busy process holds some), its OpenMP threads wait for the descheduled one at every synchronisation: with one of 2 cores
-busy, torch's own default (2 threads) trained 1.8x slower than one thread, its PPO update 2.2x slower (README, "Speed
-and threads"; an earlier measurement on main saw 5-7x). The default gives torch one thread while collecting: its
-networks are small and one core runs them, while the physics, the bulk of collection, gets every core.
+busy, torch's own default (2 threads) trained 1.8x slower than one thread, its PPO update 2.2x slower
+(docs/performance.md; an earlier measurement on main saw 5-7x). The default gives torch one thread while collecting:
+its networks are small and one core runs them, while the physics, the bulk of collection, gets every core.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 
 DEFAULT_TORCH_THREADS = 1
-"""Torch intra-op threads while collecting, by default (measured, README "Speed and threads": the default settings
+"""Torch intra-op threads while collecting, by default (measured, docs/performance.md: the default settings
 are the best idle and within 1.03x of the best with a core busy, where torch's own default is 1.8x slower)."""
 
 
@@ -33,7 +33,7 @@ def default_physics_threads() -> int:
 
 def default_update_threads() -> int:
     """Torch threads during the PPO update by default: half the available cores (1 on 2 cores, where 2 threads
-    lose 3x when another process holds a core: README "Threads"), so that one busy core never stalls the update
+    lose 3x when another process holds a core: docs/performance.md), so that one busy core never stalls the update
     while larger machines still run it in parallel."""
     return max(1, available_cores() // 2)
 

@@ -31,12 +31,13 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from collections.abc import Sequence
 
 import numpy as np
 
+from wqwarp.cli.args import output_problem
 from wqwarp.robot import constants as C
+from wqwarp.utils.io import atomic_path
 
 USD_EXTENSIONS: tuple[str, ...] = (".usda", ".usdc", ".usd")
 """Output formats: text, binary crate, and ``.usd`` (written as crate)."""
@@ -67,18 +68,13 @@ _LEG_COLOURS = {
 
 
 def check_output_path(path: str) -> str | None:
-    """The problem with writing a USD file to ``path``, or None when it can be written."""
+    """The problem with writing a USD file to ``path`` (an extension USD does not write, or
+    :func:`wqwarp.cli.args.output_problem`), or None when it can be written."""
     ext = os.path.splitext(path)[1].lower()
     if ext not in USD_EXTENSIONS:
         return f"unknown extension {ext or '(none)'!r} of {path!r}; use one of {', '.join(USD_EXTENSIONS)}"
-    d = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(d):
-        return f"output directory {d!r} does not exist"
-    if not os.access(d, os.W_OK | os.X_OK):
-        return f"output directory {d!r} is not writable"
-    if os.path.isdir(path):
-        return f"{path!r} is a directory"
-    return None
+    problem = output_problem(path)
+    return f"cannot write {path!r}: {problem}" if problem else None
 
 
 def frame_steps(seconds: float, fps: float, policy_dt: float) -> np.ndarray:
@@ -92,13 +88,6 @@ def frame_steps(seconds: float, fps: float, policy_dt: float) -> np.ndarray:
     n_frames = int(round(seconds * fps)) + 1
     t = np.arange(n_frames) / fps
     return np.clip(np.rint(t / policy_dt), 0, n_steps).astype(np.int64)
-
-
-def _quat_rotate_inv(q_xyzw: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate vectors ``v`` (N, 3) by the inverse of unit quaternions ``q_xyzw`` (N, 4)."""
-    u, w = -q_xyzw[:, :3], q_xyzw[:, 3:4]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
 
 
 def asset_shapes(asset_path: str = C.WHEELED_GO1_USD) -> dict[str, list[tuple[str, str, list[tuple]]]]:
@@ -200,11 +189,7 @@ class RolloutRecorder:
         if frames.size == 0:
             return 0
         body_q = sim.body_q.numpy()
-        jq, jqd = sim.joint_q.numpy(), sim.joint_qd.numpy()
-        rot = jq[:, 3:7].astype(np.float64)
-        rot /= np.linalg.norm(rot, axis=1, keepdims=True)
-        v_base = _quat_rotate_inv(rot, jqd[:, 0:3].astype(np.float64))
-        w_base = _quat_rotate_inv(rot, jqd[:, 3:6].astype(np.float64))
+        v_base, w_base = sim.base_lin_vel.numpy(), sim.base_ang_vel.numpy()  # the simulator's base frame
         base_vel = np.stack([v_base[:, 0], v_base[:, 1], w_base[:, 2]], axis=1)
         p_cost = sim.p_cost.numpy()
         contact = sim.wheel_contact.numpy()
@@ -403,20 +388,13 @@ class RolloutRecorder:
 
 
 def export_atomic(layer, path: str) -> int:
-    """Export Sdf ``layer`` to ``path`` through a temporary file in the same directory; returns the size [B]."""
+    """Export Sdf ``layer`` to ``path`` through a temporary file in the same directory
+    (:func:`wqwarp.utils.io.atomic_path`; its extension sets the format); returns the size [B]."""
     path = os.path.abspath(path)
-    d, base = os.path.split(path)
-    ext = os.path.splitext(base)[1]
-    fd, tmp = tempfile.mkstemp(dir=d, prefix=f".{base}.", suffix=f".tmp{ext}")  # keep the extension: it sets the format
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         if not layer.Export(tmp):  # .usd is written as crate (binary), USD's default
             raise OSError(f"USD could not write {path!r}")
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the file the usual permissions
-        os.replace(tmp, path)
-        return os.path.getsize(path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    return os.path.getsize(path)

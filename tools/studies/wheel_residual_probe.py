@@ -3,7 +3,8 @@ to zero (wheels on the nominal velocities of Eq. 3), at a held forward command.
 
 Usage::
 
-    python tools/wheel_residual_probe.py --checkpoint runs/ours_X/model_1499.pt --vx 0.8 --json docs/probe.json
+    python tools/studies/wheel_residual_probe.py --checkpoint runs/ours_X/model_1499.pt --vx 0.8
+        --json docs/studies/wheel_probe/probe.json
 
 Per wheel (FR, FL, RR, RL): mean velocity [rad/s], target [rad/s], torque [N m] and the policy's wheel action; per
 joint group: mean p_cost, mechanical and Joule power [W]; the base velocity achieved [m/s] and the share of each
@@ -13,10 +14,9 @@ forward speed is power spent on wheel slip: the robot pays it and gains no speed
 
 from __future__ import annotations
 
-import argparse
 import sys
 
-from wqwarp.cli.args import ArgumentParser
+from wqwarp.cli.args import doc_parser
 
 
 def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool) -> dict:
@@ -25,7 +25,7 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
     import warp as wp
 
     from wqwarp.control.gaits import GAIT_NAMES
-    from wqwarp.eval.protocols import start_rollout
+    from wqwarp.eval.rollout import start_rollout
 
     env = runner.env
     n = env.num_envs
@@ -60,8 +60,7 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
 
 
 def main(argv=None) -> int:
-    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = doc_parser(__doc__)
     ap.add_argument("--checkpoint", required=True, help="model_<it>.pt written by train/ppo_newton.py")
     ap.add_argument("--preset", default=None, help="preset of the checkpoint (default: from its run's config.json)")
     ap.add_argument("--vx", type=float, default=0.8, help="held forward command [m/s] (default 0.8)")
@@ -72,9 +71,11 @@ def main(argv=None) -> int:
     if args.robots < 1 or args.seconds <= 2.0:
         print("error: need --robots >= 1 and --seconds > 2 (the settling time)", file=sys.stderr)
         return 2
-    import warp as wp
+    ap.check_outputs(args.json)
 
-    wp.config.quiet = True
+    from wqwarp import quiet_warp
+
+    quiet_warp()
     from wqwarp.eval.loading import make_policy_runner
     from wqwarp.utils.provenance import write_result_json
 

@@ -3,7 +3,7 @@ choose ``SimConfig.wheel_*`` gains.
 
 Usage::
 
-    python tools/wheel_step_response.py [--speed 0.5] [--air-target 5] [--seconds 2]
+    python tools/studies/wheel_step_response.py [--speed 0.5] [--air-target 5] [--seconds 2]
                                         [--gains "kp,ki,kd;..."] [--settings "0.005x4,0.001x20"] [--json PATH]
 
 For each gain set and physics setting (dt x decimation, both 50 Hz policy steps) two runs:
@@ -23,27 +23,24 @@ substep (``Simulator.step`` of one substep each).
 
 from __future__ import annotations
 
-import json
-import os
 import sys
-import tempfile
 
 import numpy as np
 
-from wqwarp.cli.args import ArgumentParser, output_problem
+from wqwarp.cli.args import doc_parser, output_problem
 
 FLIP_TORQUE = 0.06
 """Torques below 1 % of the 6 N m limit [N m] do not count as a sign flip."""
 
 
 def run(kp, ki, kd, i_limit, dt, decimation, mode, target, seconds) -> dict:
-    import warp as wp
 
+    from wqwarp import quiet_warp
     from wqwarp.robot import asset as robot
     from wqwarp.sim.config import SimConfig
     from wqwarp.sim.simulator import Simulator
 
-    wp.config.quiet = True
+    quiet_warp()
     cfg = SimConfig(
         num_envs=1,
         dt=dt,
@@ -92,7 +89,7 @@ def _fmt(x, spec):
 
 
 def main(argv=None) -> int:
-    ap = ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = doc_parser(__doc__)
     ap.add_argument("--speed", type=float, default=0.5, help="loaded run: commanded rolling speed [m/s] (default 0.5)")
     ap.add_argument("--air-target", type=float, default=5.0, help="airborne run: wheel target [rad/s] (default 5)")
     ap.add_argument("--seconds", type=float, default=2.0, help="length of each run [s] (default 2)")
@@ -147,11 +144,9 @@ def main(argv=None) -> int:
                       f"{r['sign_flips_after_settle']:6d} {r['p_cost_per_wheel_w']:8.3f} {r['base_vx']:8.3f}",
                       flush=True)  # fmt: skip
     if args.json:
-        out_dir = os.path.dirname(os.path.abspath(args.json))
-        fd, tmp = tempfile.mkstemp(dir=out_dir, suffix=".json.tmp")
-        with os.fdopen(fd, "w") as f:
-            json.dump({"command": " ".join(sys.argv), "results": results}, f, indent=1)
-        os.replace(tmp, args.json)
+        from wqwarp.utils.provenance import write_result_json
+
+        write_result_json(args.json, {"results": results}, indent=1)
     return 0
 
 

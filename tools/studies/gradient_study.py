@@ -2,7 +2,7 @@
 
 Usage::
 
-    python tools/gradient_study.py [--gait trotting] [--vx 0.3] [--dts 0.005,0.002,0.001]
+    python tools/studies/gradient_study.py [--gait trotting] [--vx 0.3] [--dts 0.005,0.002,0.001]
                                    [--horizons 0.02,0.05,0.1,0.2,0.5] [--warmup 0.5] [--json PATH] [--plot PATH]
 
 For every physics step dt and taped horizon T [s]: one robot warms up for ``--warmup`` seconds (untaped) in the
@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from wqwarp.cli.args import ArgumentParser
+from wqwarp.cli.args import add_result_options, doc_parser
 
 PARAM_SCALE = np.array([0.2, 0.1, 1.0, 0.4, 0.05])
 """Typical size of each gait parameter (h_b [m], h_s [m], f [Hz], DF_swing [-], stance x [m]): gradients are
@@ -139,18 +139,20 @@ def plot(points: list[dict], path: str) -> None:
     axes[1].set(xlabel="taped horizon [s]", ylabel="||tape - fd|| / ||fd||")
     axes[0].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from wqwarp.utils.provenance import save_figure
+
+    save_figure(fig, path, dpi=120)
+    plt.close(fig)
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog="See the module docstring for the metrics.")
+    ap = doc_parser(__doc__)
     ap.add_argument("--gait", default="trotting", help="Table I gait (default trotting)")
     ap.add_argument("--vx", type=float, default=0.3, help="commanded forward speed [m/s] (default 0.3)")
     ap.add_argument("--dts", default="0.005,0.002,0.001", help="physics steps [s], comma-separated")
     ap.add_argument("--horizons", default="0.02,0.05,0.1,0.2,0.5,1.0", help="taped horizons [s], comma-separated")
     ap.add_argument("--warmup", type=float, default=0.5, help="untaped warm-up before the horizon [s] (default 0.5)")
-    ap.add_argument("--json", default=None, help="write the results here (JSON)")
-    ap.add_argument("--plot", default=None, help="write the figure here (PNG)")
+    add_result_options(ap)
     args = ap.parse_args(argv)
     try:
         dts = [float(x) for x in args.dts.split(",") if x.strip()]
@@ -164,9 +166,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.gait not in GAIT_NAMES:
         ap.error(f"unknown gait {args.gait!r}; choose one of {', '.join(GAIT_NAMES)}")
     ap.check_outputs(args.json, args.plot)
-    import warp as wp
 
-    wp.config.quiet = True
+    from wqwarp import quiet_warp
+
+    quiet_warp()
     points = []
     for dt in dts:
         for h in horizons:

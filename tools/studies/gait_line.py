@@ -2,8 +2,9 @@
 
 Usage::
 
-    python tools/gait_line.py --tuning docs/diffsim/optimize_trotting_0.3.json [--alphas 0,0.25,0.5,0.75,1,1.25]
-                              [--backend mujoco_cpu] [--dt 0.001] [--decimation 20] [--seconds 3] [--json PATH]
+    python tools/studies/gait_line.py --tuning docs/studies/diffsim/optimize_trotting_0.3.json
+        [--alphas 0,0.25,0.5,0.75,1,1.25] [--backend mujoco_cpu] [--dt 0.001] [--decimation 20] [--seconds 3]
+        [--json PATH]
 
 Reads a ``tools/optimize_gait.py`` result and evaluates theta(alpha) = start + alpha (tuned - start) (clipped to the
 gait's bounds) with ``wqwarp.diff.tuning.evaluate``: the closed-loop nominal gait, exact p_cost, 2 robots, 1 s warm-up,
@@ -21,18 +22,18 @@ import sys
 
 import numpy as np
 
-from wqwarp.cli.args import ArgumentParser
+from wqwarp.cli.args import add_result_options, doc_parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog="See the module docstring.")
+    ap = doc_parser(__doc__)
     ap.add_argument("--tuning", required=True, help="JSON written by tools/optimize_gait.py")
     ap.add_argument("--alphas", default="0,0.25,0.5,0.75,1,1.25", help="points on the line (0 start, 1 tuned)")
     ap.add_argument("--backend", default="mujoco_cpu", choices=("mujoco_cpu", "featherstone"), help="physics")
     ap.add_argument("--dt", type=float, default=0.001, help="physics step [s] (default 0.001)")
     ap.add_argument("--decimation", type=int, default=20, help="substeps per policy step (default 20)")
     ap.add_argument("--seconds", type=float, default=3.0, help="window after 1 s warm-up [s] (default 3)")
-    ap.add_argument("--json", default=None, help="write the results here (JSON)")
+    add_result_options(ap, plot=None)
     args = ap.parse_args(argv)
     try:
         with open(args.tuning, encoding="utf-8") as f:
@@ -50,9 +51,10 @@ def main(argv: list[str] | None = None) -> int:
     if not alphas or not (0 < args.dt <= 0.02) or args.decimation < 1 or args.seconds <= 0:
         ap.error("need --alphas, 0 < --dt <= 0.02, --decimation >= 1 and --seconds > 0")
     ap.check_outputs(args.json)
-    import warp as wp
 
-    wp.config.quiet = True
+    from wqwarp import quiet_warp
+
+    quiet_warp()
     from wqwarp.diff.tuning import evaluate
 
     points = []

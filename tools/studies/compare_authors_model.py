@@ -2,8 +2,8 @@
 
 Usage::
 
-    python tools/compare_authors_model.py --mjcf PATH/wheeled_go1.xml [--dt 0.005] [--decimation 4]
-                                          [--scenarios standing,drive_0.5,trot_0] [--json docs/authors_model.json]
+    python tools/studies/compare_authors_model.py --mjcf PATH/wheeled_go1.xml [--dt 0.005] [--decimation 4]
+        [--scenarios standing,drive_0.5,trot_0] [--json docs/studies/authors_model/authors_model_dt0.005.json]
 
 ``--mjcf`` is ``resources/wheeled_go1/xml/wheeled_go1.xml`` of the paper's first author's MIT-licensed harness
 (github.com/xu-yang16/wheeled-quadruped-sim2sim); it is not shipped here. Its mesh geoms are visual only
@@ -20,15 +20,13 @@ accounted for. Printed per scenario and robot: trunk height, forward speed, p_co
 
 from __future__ import annotations
 
-import json
 import os
 import sys
-import tempfile
 import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from wqwarp.cli.args import ArgumentParser, output_problem
+from wqwarp.cli.args import doc_parser, output_problem
 
 SCENARIOS = {"standing": ("driving", (0.0, 0.0, 0.0)), "drive_0.5": ("driving", (0.5, 0.0, 0.0)),
              "drive_1.0": ("driving", (1.0, 0.0, 0.0)), "trot_0": ("trotting", (0.0, 0.0, 0.0)),
@@ -116,38 +114,33 @@ class AuthorsRobot:
 
 
 def run(scenario: str, mjcf: str, dt: float, decimation: int, warmup: float, seconds: float) -> dict:
-    import torch
     import warp as wp
 
+    from wqwarp import quiet_warp
+    from wqwarp.control.driver import OpenLoopDriver
     from wqwarp.control.nominal import NominalGait
-    from wqwarp.rl.env import quat_rotate_inv
     from wqwarp.sim.config import SimConfig
     from wqwarp.sim.simulator import Simulator
 
-    wp.config.quiet = True
+    quiet_warp()
     gait, cmd = SCENARIOS[scenario]
     cfg = SimConfig(num_envs=1, dt=dt, decimation=decimation)
     ours = Simulator(cfg)
     theirs = AuthorsRobot(load_authors_model(mjcf, dt), cfg)
-    gaits = {k: NominalGait(1, "cpu") for k in ("ours", "theirs")}
-    for ng in gaits.values():
-        ng.reset([0], ng.gait_ids(gait))
-        ng.command.assign(np.array([cmd], np.float32))
-    contact = wp.ones((1, 4), dtype=wp.int32)
+    driver = OpenLoopDriver(ours, gait, cmd, contact="ground")  # this robot: the one open-loop driver
+    ng = NominalGait(1, "cpu")  # the authors' robot is no Simulator: the same gait, driven by hand below
+    ng.reset([0], ng.gait_ids(gait))
+    ng.command.assign(np.array([cmd], np.float32))
+    contact = wp.ones((1, 4), dtype=wp.int32)  # all wheels on the ground, as the driver's contact="ground"
     steps, start = int(round((warmup + seconds) / ours.policy_dt)), int(round(warmup / ours.policy_dt))
     rows = {"ours": [], "theirs": []}
     for k in range(steps):
-        ng = gaits["ours"]
-        ng.step(ours.actuated_q[:, :12], contact, ours.policy_dt)
-        wp.copy(ours.leg_q_target, ng.leg_joint_target)
-        wp.copy(ours.wheel_qd_target, ng.wheel_velocity)
-        ours.step()
-        ng = gaits["theirs"]
+        driver.step()
         ng.step(wp.array(theirs.leg_q()[None], dtype=wp.float32), contact, ours.policy_dt)
         p_legs, p_wheels = theirs.step(ng.leg_joint_target.numpy()[0], ng.wheel_velocity.numpy()[0], decimation)
         if k >= start:
-            q, qd = ours.joint_q.numpy(), ours.joint_qd.numpy()
-            vx = float(quat_rotate_inv(torch.from_numpy(q[:, 3:7]), torch.from_numpy(qd[:, 0:3]))[0, 0])
+            q = ours.joint_q.numpy()
+            vx = float(ours.base_lin_vel.numpy()[0, 0])  # base frame
             rows["ours"].append([q[0, 2], vx, ours.p_cost_legs.numpy()[0], ours.p_cost_wheels.numpy()[0]])
             rows["theirs"].append([*theirs.base(), p_legs, p_wheels])
     out = {}
@@ -158,7 +151,7 @@ def run(scenario: str, mjcf: str, dt: float, decimation: int, warmup: float, sec
 
 
 def main(argv=None) -> int:
-    ap = ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = doc_parser(__doc__)
     ap.add_argument("--mjcf", required=True, help="the authors' resources/wheeled_go1/xml/wheeled_go1.xml")
     ap.add_argument(
         "--scenarios",
@@ -192,13 +185,9 @@ def main(argv=None) -> int:
             print(f"| {name} | {who} | {x['height']:.3f} | {x['v_x']:.2f} | {x['p_cost']:.1f} | "
                   f"{x['p_cost_legs']:.1f} | {x['p_cost_wheels']:.1f} |", flush=True)  # fmt: skip
     if args.json:
-        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(args.json)), suffix=".json.tmp")
-        with os.fdopen(fd, "w") as f:
-            from wqwarp.utils.provenance import git_state
+        from wqwarp.utils.provenance import write_result_json
 
-            json.dump({"command": " ".join(sys.argv), "git": git_state(), "dt": args.dt,
-                       "decimation": args.decimation, "results": results}, f, indent=1)  # fmt: skip
-        os.replace(tmp, args.json)
+        write_result_json(args.json, {"dt": args.dt, "decimation": args.decimation, "results": results}, indent=1)
     return 0
 
 

@@ -3,7 +3,7 @@ does anything non-finite get through?
 
 Usage::
 
-    python tools/stability_fuzz.py [--robot-steps 1000000] [--num-envs 256] [--preset ours] [--backend auto]
+    python tools/studies/stability_fuzz.py [--robot-steps 1000000] [--num-envs 256] [--preset ours] [--backend auto]
                                    [--dt 0.005 --decimation 4] [--seed 1] [--json PATH]
 
 Every policy step draws actions uniformly over the whole clip range (+-``action.clip_actions``) and every second new
@@ -16,20 +16,19 @@ joint speed, base speed and base height of that robot in the step before.
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
 
-from wqwarp.cli.args import ArgumentParser, output_problem
+from wqwarp.cli.args import doc_parser, output_problem
 
 
 def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, decimation: int, seed: int,
          progress: bool = False) -> dict:  # fmt: skip
     import torch
 
-    from wqwarp.rl.config import make_preset
     from wqwarp.rl.env import WheeledGo1Env
+    from wqwarp.rl.presets import make_preset
 
     cfg = make_preset(preset)
     cfg.sim.num_envs = num_envs
@@ -84,8 +83,7 @@ def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, 
 
 
 def main(argv=None) -> int:
-    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = doc_parser(__doc__)
     ap.add_argument("--robot-steps", type=int, default=1_000_000, help="robot policy steps in all (default 1e6)")
     ap.add_argument("--num-envs", type=int, default=256, help="robots stepped together (default 256)")
     ap.add_argument("--preset", default="ours", help="method preset (default ours)")
@@ -95,7 +93,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=1, help="seed of actions, commands and the env (default 1)")
     ap.add_argument("--json", default=None, help="write the counts and events to this JSON file (atomically)")
     args = ap.parse_args(argv)
-    from wqwarp.rl.config import PRESETS
+    from wqwarp.rl.presets import PRESETS
     from wqwarp.sim.config import BACKENDS
 
     if args.robot_steps < 1 or args.num_envs < 1 or args.decimation < 1 or not args.dt > 0:

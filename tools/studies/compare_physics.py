@@ -2,7 +2,7 @@
 
 Usage::
 
-    python tools/compare_physics.py [--scenarios standing,drive_0.5,drive_1.0,turn_0.5,trot_0.3,walk_0.3]
+    python tools/studies/compare_physics.py [--scenarios standing,drive_0.5,drive_1.0,turn_0.5,trot_0.3,walk_0.3]
                                     [--backends mujoco_cpu,featherstone] [--dt 0.001] [--decimation 20]
                                     [--seconds 4] [--json PATH] [--plot PATH]
 
@@ -18,26 +18,17 @@ the trajectories and the summary) written atomically. Bad input: one ``error:`` 
 
 from __future__ import annotations
 
-import importlib.util
-import os
 import sys
 import time
 
 import numpy as np
 
-from wqwarp.cli.args import ArgumentParser
+from wqwarp.cli import energy_audit as audit
+from wqwarp.cli.args import add_result_options, doc_parser
 
 QUANTITIES = ("height", "v_x", "w_z", "p_cost", "p_cost_legs", "p_cost_wheels")
 SETTLE_S = 1.0
 """Start of the compared window [s]: the first second holds the drop from the start pose."""
-
-
-def _energy_audit():
-    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "energy_audit.py")
-    spec = importlib.util.spec_from_file_location("energy_audit", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def compare(traces: dict, backends: list[str]) -> dict:
@@ -73,13 +64,15 @@ def plot(report: dict, path: str) -> None:
     for ax in axes[-1]:
         ax.set_xlabel("t [s]")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    from wqwarp.utils.provenance import save_figure
+
+    save_figure(fig, path, dpi=110)
+    plt.close(fig)
 
 
 def main(argv: list[str] | None = None) -> int:
-    audit = _energy_audit()
     gaits = [s for s, (g, _) in audit.SCENARIOS.items() if g is not None]
-    ap = ArgumentParser(description=__doc__.split("\n\n")[0], epilog="See the module docstring for the outputs.")
+    ap = doc_parser(__doc__)
     ap.add_argument("--scenarios", default="standing,drive_0.5,drive_1.0,turn_0.5,trot_0.3,walk_0.3",
                     help=f"comma-separated scenarios of tools/energy_audit.py (gaits only: {', '.join(gaits)})")
     ap.add_argument("--backends", default="mujoco_cpu,featherstone", help="two or more backends; the first is the "
@@ -87,8 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--dt", type=float, default=0.001, help="physics step [s] (default 0.001, the paper's)")
     ap.add_argument("--decimation", type=int, default=20, help="substeps per policy step (default 20: 50 Hz)")
     ap.add_argument("--seconds", type=float, default=4.0, help="length of each run [s] (default 4)")
-    ap.add_argument("--json", default=None, help="write the results here (JSON)")
-    ap.add_argument("--plot", default=None, help="write the figure here (PNG)")
+    add_result_options(ap)
     args = ap.parse_args(argv)
     scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     bad = [s for s in scenarios if s not in gaits]
@@ -102,9 +94,10 @@ def main(argv: list[str] | None = None) -> int:
     if not (0 < args.dt <= 0.02) or args.decimation < 1 or args.seconds <= SETTLE_S:
         ap.error(f"need 0 < --dt <= 0.02, --decimation >= 1 and --seconds > {SETTLE_S}")
     ap.check_outputs(args.json, args.plot)
-    import warp as wp
 
-    wp.config.quiet = True
+    from wqwarp import quiet_warp
+
+    quiet_warp()
     report = {"dt": args.dt, "decimation": args.decimation, "seconds": args.seconds, "settle_s": SETTLE_S,
               "backends": backends, "scenarios": {}}  # fmt: skip
     t0 = time.time()

@@ -2,8 +2,8 @@
 
 Usage::
 
-    python tools/lateral_probe.py --checkpoint runs/X/model_999.pt [--json out.json]
-    python tools/lateral_probe.py --open-loop [--amplitudes 0,0.03,0.06] [--json out.json]
+    python tools/studies/lateral_probe.py --checkpoint runs/X/model_999.pt [--json out.json]
+    python tools/studies/lateral_probe.py --open-loop [--amplitudes 0,0.03,0.06] [--json out.json]
 
 ``--checkpoint``: 8 robots (no domain randomisation, estimator frozen), each holding one v_y command from -0.7 to
 0.7 m/s (v_x = w = 0) for ``--seconds``; after 2 s prints per robot the achieved mean v_y, the mean phase action of
@@ -21,11 +21,10 @@ from __future__ import annotations
 import json
 import os
 import sys
-import tempfile
 
 import numpy as np
 
-from wqwarp.cli.args import ArgumentParser, output_problem
+from wqwarp.cli.args import doc_parser, output_problem
 
 COMMANDS = (-0.7, -0.5, -0.3, -0.1, 0.1, 0.3, 0.5, 0.7)
 
@@ -34,7 +33,7 @@ def probe_policy(checkpoint: str, seconds: float) -> dict:
     import torch
 
     from wqwarp.eval.loading import make_policy_runner
-    from wqwarp.eval.protocols import start_rollout
+    from wqwarp.eval.rollout import start_rollout
 
     runner = make_policy_runner(checkpoint, None, num_envs=len(COMMANDS))
     env = runner.env
@@ -60,12 +59,10 @@ def probe_policy(checkpoint: str, seconds: float) -> dict:
 
 
 def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
-    import torch
     import warp as wp
 
     from wqwarp.control.nominal import NominalGait
     from wqwarp.kernels.kinematics import compute_leg_ik
-    from wqwarp.rl.env import quat_rotate_inv
     from wqwarp.robot import constants as C
     from wqwarp.sim.config import SimConfig
     from wqwarp.sim.simulator import Simulator
@@ -88,9 +85,7 @@ def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
             sim.wheel_qd_target.zero_()
             sim.step()
             if k * sim.policy_dt >= 1.0:
-                v = quat_rotate_inv(
-                    torch.from_numpy(sim.joint_q.numpy()[:, 3:7]), torch.from_numpy(sim.joint_qd.numpy()[:, 0:3])
-                )
+                v = sim.base_lin_vel.numpy()  # base frame
                 vy.append(float(v[0, 1]))
                 p.append(float(sim.p_cost.numpy()[0]))
         out.append({"amplitude_m": amp, "action_units": amp / 0.2, "achieved_vy": float(np.mean(vy)),
@@ -99,7 +94,7 @@ def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = doc_parser(__doc__)
     ap.add_argument("--checkpoint", default=None, help="probe this policy (model_<it>.pt)")
     ap.add_argument("--open-loop", action="store_true", help="probe the nominal trot plus a foot-y sawtooth")
     ap.add_argument(
@@ -122,20 +117,17 @@ def main(argv=None) -> int:
     except ValueError:
         print(f"error: --amplitudes must be comma-separated numbers, got {args.amplitudes!r}", file=sys.stderr)
         return 2
-    import warp as wp
 
-    wp.config.quiet = True
+    from wqwarp import quiet_warp
+
+    quiet_warp()
     res = probe_policy(args.checkpoint, args.seconds) if args.checkpoint else probe_open_loop(amps, args.seconds)
-    from wqwarp.utils.provenance import git_state
+    from wqwarp.utils.provenance import git_state, write_result_json
 
-    res["command"] = " ".join(sys.argv)
-    res["git"] = git_state()
+    res = {"command": " ".join(sys.argv), "git": git_state(), **res}
     print(json.dumps(res, indent=1))
     if args.json:
-        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(args.json)), suffix=".json.tmp")
-        with os.fdopen(fd, "w") as f:
-            json.dump(res, f, indent=1)
-        os.replace(tmp, args.json)
+        write_result_json(args.json, res, indent=1)
     return 0
 
 

@@ -1,0 +1,203 @@
+"""The config tree: typed choices checked when set, numeric sanity at construction, no physics imported; every field
+settable from the command line with its docstring as help; the preset registry."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import subprocess
+import sys
+
+import pytest
+
+from wqwarp.cli.args import ArgumentParser
+from wqwarp.cli.config_args import (
+    add_config_arguments,
+    apply_overrides,
+    config_options,
+    config_overrides,
+    field_docs,
+    normalize_options,
+)
+from wqwarp.cli.train_args import ALIASES, build_parser, default_roots, parse_train_args, resolve_config, run_record
+from wqwarp.rl.config import EnvConfig, GaitConfig, PredictorConfig, TrainConfig, env_config_from_dict, to_dict
+from wqwarp.rl.presets import PAPER_NAMES, PRESET_ORDER, PRESETS, infer_preset, make_preset, preset_differences
+from wqwarp.sim.config import BACKENDS, SimConfig
+
+PHYSICS = {"newton", "mujoco", "warp", "torch"}
+
+
+@pytest.mark.parametrize("module", ["wqwarp.rl.config", "wqwarp.sim.config", "wqwarp.rl.presets",
+                                    "wqwarp.cli.train_args"])  # fmt: skip
+def test_reading_a_config_imports_no_physics_engine_and_no_torch(module):
+    code = (f"import {module}, sys; from wqwarp.rl.presets import make_preset; make_preset('ours').sim; "
+            f"print(sorted({PHYSICS!r} & {{m.split('.')[0] for m in sys.modules}}))")  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out
+
+
+@pytest.mark.parametrize(("build", "field", "bad"), [
+    (lambda v: GaitConfig(selection=v), "GaitConfig.selection", "greedy"),
+    (lambda v: PredictorConfig(power_normalization=v), "PredictorConfig.power_normalization", "kilowatts"),
+    (lambda v: PredictorConfig(temperature_shape=v), "PredictorConfig.temperature_shape", "step"),
+    (lambda v: PredictorConfig(evaluation_selection=v), "PredictorConfig.evaluation_selection", "max"),
+    (lambda v: SimConfig(backend=v), "SimConfig.backend", "physx"),
+    (lambda v: SimConfig(joint_model=v), "SimConfig.joint_model", "urdf"),
+])  # fmt: skip
+def test_a_bad_choice_is_one_error_naming_field_value_and_choices(build, field, bad):
+    with pytest.raises(ValueError, match=rf"^{field} '{bad}' is not one of \w+"):
+        build(bad)
+
+
+def test_a_choice_is_also_checked_when_assigned_later():
+    cfg = make_preset("ours")
+    with pytest.raises(ValueError, match="ActionConfig.phase_residual_mode 'sideways' is not one of offset, increment"):
+        cfg.action.phase_residual_mode = "sideways"
+    assert cfg.action.phase_residual_mode == "offset"
+    cfg.sim.backend = "featherstone"  # a valid choice is simply set
+    assert cfg.sim.backend == "featherstone" and set(BACKENDS) >= {"auto", "featherstone"}
+
+
+@pytest.mark.parametrize(("build", "match"), [
+    (lambda: SimConfig(num_envs=0), "SimConfig.num_envs must be >= 1"),
+    (lambda: SimConfig(dt=0.0), "SimConfig.dt must be > 0"),
+    (lambda: SimConfig(device="tpu"), "SimConfig.device must be cpu or cuda:N"),
+    (lambda: PredictorConfig(temperature_start=0.0), "PredictorConfig.temperature_start must be > 0"),
+    (lambda: PredictorConfig(decision_interval_s=-1.0), "PredictorConfig.decision_interval_s must be > 0"),
+    (lambda: PredictorConfig(holdout_fraction=1.0), r"PredictorConfig.holdout_fraction must be in \[0, 1\)"),
+    (lambda: TrainConfig(max_iterations=0), "TrainConfig.max_iterations must be > 0"),
+])  # fmt: skip
+def test_numeric_sanity_at_construction(build, match):
+    with pytest.raises(ValueError, match=match):
+        build()
+
+
+def test_validate_checks_the_whole_tree_after_assignments():
+    cfg = make_preset("ours")
+    cfg.commands.vx_range = (1.0, -1.0)
+    with pytest.raises(ValueError, match=r"CommandConfig.vx_range must be \(lo, hi\) with lo <= hi"):
+        cfg.validate()
+    cfg = make_preset("baseline")
+    cfg.action.use_nominal_legs = True
+    with pytest.raises(ValueError, match="use_nominal_legs needs a nominal gait"):
+        cfg.validate()
+
+
+def test_field_docs_come_from_the_docstring_under_each_field():
+    assert field_docs(SimConfig)["dt"].startswith("Physics substep [s]")
+    assert "gait clock" in field_docs(type(make_preset("ours").action))["phase_residual_mode"]
+    assert field_docs(TrainConfig)["max_iterations"] == "PPO iterations (paper: 4000 epochs)."
+    assert field_docs(type(make_preset("ours").reward))["energy"]  # a generated dataclass: field.metadata["doc"]
+
+
+def _parse(*argv: str) -> argparse.Namespace:
+    return build_parser("Title.\n\nEpilog.").parse_args(normalize_options(list(argv)))
+
+
+def test_every_type_of_field_parses_from_the_command_line():
+    roots = {"env": EnvConfig(), "train": TrainConfig()}
+    p = ArgumentParser(prog="x")
+    add_config_arguments(p, roots)
+    args = p.parse_args(normalize_options([
+        "--env.reward.energy", "-2e-5", "--env.sim.num_envs", "3", "--env.obs.no-noise", "--env.commands.vx-range",
+        "-1", "1.5", "--env.predictor.hidden-dims", "32", "16", "8", "--env.sim.nthread", "none",
+        "--env.domain_rand.enabled", "false", "--env.gait.selection", "predictive", "--train.max-iterations=7",
+        "--env.sim.cuda-graph"]))  # fmt: skip
+    over = config_overrides(args)
+    apply_overrides(roots, over)
+    env, train = roots["env"], roots["train"]
+    assert env.reward.energy == -2e-5 and env.sim.num_envs == 3 and env.obs.noise is False
+    assert env.commands.vx_range == (-1.0, 1.5) and env.predictor.hidden_dims == (32, 16, 8)
+    assert env.sim.nthread is None and env.domain_rand.enabled is False and env.gait.selection == "predictive"
+    assert train.max_iterations == 7 and env.sim.cuda_graph is True
+    assert list(over)[0] == "env.reward.energy"  # command-line order
+    env.validate()
+
+
+def test_the_preset_comes_first_then_the_aliases_and_long_options_in_order():
+    args = _parse("--preset", "baseline", "--num-envs", "8", "--env.sim.num-envs", "6", "--dt", "0.002",
+                  "--decimation", "10", "--reward", "energy=-1e-4", "--temperature", "3", "0.1", "--true-state",
+                  "--max-iterations", "5")  # fmt: skip
+    env, train = resolve_config(args)
+    assert env.gait.selection == "none" and env.reward.residual == 0.0  # the baseline preset
+    assert env.sim.num_envs == 6 and (env.sim.dt, env.sim.decimation) == (0.002, 10)  # the later option wins
+    assert env.reward.energy == -1e-4 and env.estimator.use_true_state is True
+    assert (env.predictor.temperature_start, env.predictor.temperature_end) == (3.0, 0.1)
+    assert train.max_iterations == 5 and args.num_envs == 6 and args.max_iterations == 5
+    env, _ = resolve_config(_parse())
+    assert env.sim.num_envs == 128 and env.gait.selection == "predictive"  # the training command's defaults
+
+
+def test_the_run_record_holds_the_command_line_its_options_and_the_resolved_flags():
+    args = parse_train_args("Title.\n\nEpilog.", ["--num-envs", "4", "--env.reward.energy", "-2e-5", "--seed", "3"])
+    resolve_config(args)
+    rec = run_record(args)
+    assert rec["command"] == "train/ppo_newton.py --num-envs 4 --env.reward.energy -2e-5 --seed 3"
+    assert rec["overrides"] == {"env.sim.num_envs": 4, "env.reward.energy": -2e-5, "env.seed": 3}
+    assert rec["args"]["num_envs"] == 4 and rec["args"]["preset"] == "ours" and rec["args"]["save_interval"] == 50
+    assert not any(k.startswith("@") for k in rec["args"])
+
+
+def test_every_alias_targets_a_config_field():
+    roots = default_roots()
+    paths = {o.path for name, cfg in roots.items() for _, _, leaves in config_options(name, cfg) for o in leaves}
+    assert {a.path for a in ALIASES} <= paths
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--env.gait.selection", "greedy"], "invalid choice: 'greedy'"),
+    (["--env.sim.dt", "fast"], "invalid float value: 'fast'"),
+    (["--reward", "speed=1"], "unknown term 'speed'"),
+    (["--reward", "energy=lots"], "the weight must be a number"),
+    (["--env.obs.noise", "maybe"], "expected true or false"),
+])  # fmt: skip
+def test_a_bad_value_exits_2_with_one_line(argv, message, capsys):
+    with pytest.raises(SystemExit) as e:
+        _parse(*argv)
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and err.count("\n") == 1 and message in err, err
+
+
+def test_help_lists_every_option_with_its_help():
+    text = build_parser("Title.\n\nEpilog.").format_help()
+    for name, cfg in default_roots().items():
+        for _, _, leaves in config_options(name, cfg):
+            for leaf in leaves:
+                assert "--" + leaf.path.replace("_", "-") in text, leaf.path
+    assert "Physics substep [s]" in text and "--env.sim.*" in text and "--num-envs" in text
+
+
+def test_registry_names_each_preset_once():
+    assert PRESET_ORDER[0] == "ours" and set(PRESET_ORDER) == set(PRESETS) == set(PAPER_NAMES)
+    assert [p for p in PRESETS.values() if p.predictive] == [PRESETS["ours"], PRESETS["no_wheel_vel"]]
+    assert [p.name for p in PRESETS.values() if p.selection_studies] == ["ours"]
+    for name in PRESETS:
+        cfg = make_preset(name)
+        assert infer_preset(cfg) == name and not preset_differences(name, cfg)
+        assert make_preset(name) is not cfg and PRESETS[name].selector == cfg.gait.selection
+    assert preset_differences("ours", make_preset("pmtg")) == [
+        "gait.selection 'fixed' (preset ours: 'predictive')",
+        "action.use_nominal_wheels False (preset ours: True)"]  # fmt: skip
+
+
+def test_a_new_preset_is_one_factory_and_one_registry_entry(monkeypatch):
+    from wqwarp.rl import presets
+
+    def walking_only() -> EnvConfig:
+        cfg = EnvConfig()
+        cfg.gait = GaitConfig(selection="fixed", fixed_gait="walking")
+        return cfg
+
+    entry = presets.Preset("walking_only", walking_only, "Walking", "fixed walking gait")
+    monkeypatch.setitem(presets.PRESETS, entry.name, entry)
+    env, _ = resolve_config(_parse("--preset", "walking_only"))
+    assert env.gait.fixed_gait == "walking" and infer_preset(env) == "walking_only"
+
+
+def test_old_checkpoint_configs_still_read():
+    data = to_dict(make_preset("ours"))
+    del data["action"]["phase_residual_mode"]
+    notes: list[str] = []
+    cfg = env_config_from_dict(data, notes)
+    assert cfg.action.phase_residual_mode == "increment" and "issue" not in " ".join(notes)
+    assert dataclasses.asdict(env_config_from_dict(to_dict(make_preset("pmtg")))) == to_dict(make_preset("pmtg"))

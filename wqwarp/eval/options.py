@@ -1,0 +1,78 @@
+"""Options of an evaluation protocol as one dataclass: each field is a command-line flag (``--num-envs`` for
+``num_envs``) with its help from the field's metadata, and the same object is what the protocol function takes when it
+is called from code (``train/reproduce.py``). The equivalent command line is derived back from it for the result's
+provenance (:func:`command_line`)."""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+from dataclasses import MISSING, dataclass, field, fields
+
+
+def option(default=MISSING, help: str = "", **argparse_kwargs):  # noqa: A002 - argparse's own name
+    """A dataclass field that is also a command-line option: ``help`` and any ``argparse`` keywords (``type``,
+    ``choices``) in its metadata. No default: a required option."""
+    metadata = {"help": help, **argparse_kwargs}
+    return field(metadata=metadata) if default is MISSING else field(default=default, metadata=metadata)
+
+
+def flag(name: str) -> str:
+    """``num_envs`` -> ``--num-envs``."""
+    return "--" + name.replace("_", "-")
+
+
+@dataclass(kw_only=True)
+class ProtocolOptions:
+    """Options every protocol has: the checkpoint, the device, the seed and the JSON result."""
+
+    checkpoint: str = option(help="model_<it>.pt written by train/ppo_newton.py")
+    device: str = option("cpu", help="cpu or cuda:N (default cpu)")
+    seed: int = option(0, help="random seed of the evaluation (spawn yaws, pushes; default 0)")
+    json: str | None = option(None, help="also write the results to this JSON file", type=str, output=True)
+
+    def validate(self) -> None:
+        """ValueError with a one-line message for an option out of range (before any work)."""
+
+    def outputs(self) -> dict[str, str]:
+        """Flag -> path of every result file this run writes (checked writable before any work)."""
+        return {flag(f.name): getattr(self, f.name) for f in fields(self) if f.metadata.get("output")
+                and getattr(self, f.name)}  # fmt: skip
+
+
+def add_options(parser: argparse.ArgumentParser, cls: type[ProtocolOptions], defaults: dict | None = None) -> None:
+    """One ``parser`` option per field of ``cls``; ``defaults`` replace the dataclass's (a protocol's own)."""
+    defaults = defaults or {}
+    for f in fields(cls):
+        kw = {k: v for k, v in f.metadata.items() if k != "output"}
+        default = defaults.get(f.name, f.default)
+        if default is MISSING:
+            kw.setdefault("type", str)
+            parser.add_argument(flag(f.name), required=True, **kw)
+        elif isinstance(default, bool):
+            parser.add_argument(flag(f.name), action="store_true", default=default, help=kw["help"])
+        else:
+            kw.setdefault("type", type(default) if default is not None else str)
+            parser.add_argument(flag(f.name), default=default, **kw)
+
+
+def from_namespace(cls: type[ProtocolOptions], ns: argparse.Namespace) -> ProtocolOptions:
+    """The options ``cls`` of parsed arguments ``ns``."""
+    return cls(**{f.name: getattr(ns, f.name) for f in fields(cls)})
+
+
+def command_line(prefix: str, opts: ProtocolOptions, defaults: dict | None = None) -> str:
+    """``prefix`` and the flags of ``opts`` that differ from the defaults (``defaults`` over the dataclass's), quoted
+    for a POSIX shell: the command a user would type to get the same result."""
+    defaults = defaults or {}
+    out = [prefix]
+    for f in fields(opts):
+        value, default = getattr(opts, f.name), defaults.get(f.name, f.default)
+        if value == default and default is not MISSING:
+            continue
+        if isinstance(value, bool):
+            out.append(flag(f.name))
+        else:
+            out += [flag(f.name), shlex.quote(f"{value:g}" if isinstance(value, float) else str(value))]
+    return " ".join(out)
+

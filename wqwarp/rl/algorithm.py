@@ -1,0 +1,212 @@
+"""rsl-rl's PPO with the paper's two auxiliary learners as extensions: the state estimator and the power predictor.
+
+The train config names the class (``algorithm.class_name = "wqwarp.rl.algorithm:WqPPO"``); rsl-rl's runner builds it
+through :meth:`WqPPO.construct_algorithm`, which attaches the env's learners. Each learner is an extension in the shape
+of rsl-rl's own (``rsl_rl.extensions``): after PPO's update it fits on the rollout just collected and adds its loss to
+``update()``'s dict (logged as ``Loss/estimator``, ``Loss/predictor``), saves and loads with the algorithm, and is
+broadcast from rank 0 at the start and averaged across ranks after each fit under torch.distributed.
+
+Order inside :meth:`WqPPO.update` (the random streams are consumed in it): PPO's update, the estimator fit, the
+power-predictor fit, then the temperature schedule moves to the next iteration.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Literal
+
+import torch
+import torch.distributed as dist
+from rsl_rl.algorithms import PPO
+from tensordict import TensorDict
+from torch import nn
+
+from wqwarp.rl.estimator import EstimatorTrainer
+from wqwarp.rl.gait_selection import GaitSelector, PredictiveGaitSelector
+
+if TYPE_CHECKING:
+    from wqwarp.rl.env import WheeledGo1Env
+
+
+def sync_module(module: nn.Module, op: Literal["broadcast", "average"]) -> None:
+    """Under torch.distributed: ``broadcast`` rank 0's floating-point parameters and buffers to every rank, or
+    ``average`` them across ranks (sum / world size); nothing outside torch.distributed."""
+    if not (dist.is_available() and dist.is_initialized()):
+        return
+    world = dist.get_world_size()
+    for t in list(module.parameters()) + list(module.buffers()):
+        if not t.is_floating_point():
+            continue
+        if op == "broadcast":
+            dist.broadcast(t.data, src=0)
+        else:
+            dist.all_reduce(t.data, op=dist.ReduceOp.SUM)
+            t.data /= world
+
+
+class EstimatorLearner:
+    """The state estimator z_t = (v_x, v_y, h) as an extension: MSE regression on the (history, true state) pairs
+    the env stored during the rollout (``wqwarp.rl.estimator``)."""
+
+    key = "estimator"
+    """Name of its loss (``Loss/estimator``) and of its entries in a checkpoint."""
+
+    def __init__(self, trainer: EstimatorTrainer):
+        self.trainer = trainer
+        """Holds the estimator network, its optimizer and the pairs collected since the last fit."""
+
+    def modules(self) -> list[nn.Module]:
+        """Networks kept identical across ranks."""
+        return [self.trainer.estimator]
+
+    def fit(self) -> dict[str, float]:
+        """Fit on the rollout's pairs; the mean squared error [(m/s)^2 and m^2 mixed]."""
+        return {self.key: self.trainer.fit()}
+
+    def set_iteration(self, iteration: int) -> None:
+        """The estimator has no schedule."""
+
+    def state_dict(self) -> dict:
+        return {f"{self.key}_state_dict": self.trainer.estimator.state_dict(),
+                f"{self.key}_optimizer_state_dict": self.trainer.optimizer.state_dict()}  # fmt: skip
+
+    def load_state_dict(self, saved: dict, strict: bool, rng: bool) -> None:
+        """Network and optimizer from :meth:`state_dict`'s entries of ``saved`` (no random stream of its own)."""
+        self.trainer.estimator.load_state_dict(saved[f"{self.key}_state_dict"], strict=strict)
+        if f"{self.key}_optimizer_state_dict" in saved:
+            self.trainer.optimizer.load_state_dict(saved[f"{self.key}_optimizer_state_dict"])
+
+
+class GaitSelectorLearner:
+    """The gait selector as an extension: with predictive selection the power predictor (masked regression on the
+    labelled power windows of the replay buffer, ``wqwarp.rl.gait_selection``) and the softmax temperature schedule;
+    the fixed and ``none`` selectors only save their name (a checkpoint of another selector is refused)."""
+
+    key = "gait_selector"
+    """Name of its entry in a checkpoint."""
+
+    def __init__(self, selector: GaitSelector):
+        self.selector = selector
+
+    def modules(self) -> list[nn.Module]:
+        """Networks kept identical across ranks (the power predictor, if any)."""
+        return [self.selector.predictor] if isinstance(self.selector, PredictiveGaitSelector) else []
+
+    def fit(self) -> dict[str, float]:
+        """Fit the power predictor; its masked regression loss (in target standard deviations squared)."""
+        out = self.selector.fit()
+        return {"predictor": out["loss"]} if "loss" in out else {}
+
+    def set_iteration(self, iteration: int) -> None:
+        """Move the temperature schedule to the PPO iteration the coming rollout belongs to."""
+        self.selector.set_iteration(iteration)
+
+    def state_dict(self) -> dict:
+        return {f"{self.key}_state_dict": self.selector.state_dict()}
+
+    def load_state_dict(self, saved: dict, strict: bool, rng: bool) -> None:
+        """The selector's state (name check, predictor, optimizer, schedule position); its random stream only with
+        ``rng`` (resuming a training run)."""
+        state = saved.get(f"{self.key}_state_dict")
+        if state is None:
+            if isinstance(self.selector, PredictiveGaitSelector):
+                raise ValueError("the checkpoint holds no power predictor; it cannot drive the predictive gait "
+                                 "selection")  # fmt: skip
+            return
+        self.selector.load_state_dict(state if rng else {k: v for k, v in state.items() if k != "rng"})
+
+
+LEGACY_KEYS = {"estimator_state_dict": "estimator", "estimator_optimizer_state_dict": "estimator_optimizer",
+               "gait_selector_state_dict": "gait_selector"}  # fmt: skip
+"""Checkpoint entry -> where checkpoints of format 1 kept it (in ``infos``)."""
+
+
+class WqPPO(PPO):
+    """PPO (``rsl_rl.algorithms.PPO``) with the state estimator and the power predictor as extensions (module
+    docstring).
+
+    Reference:
+        - Schulman et al. "Proximal policy optimization algorithms." arXiv preprint arXiv:1707.06347 (2017).
+    """
+
+    def __init__(self, *args, update_threads: int | None = None, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.update_threads = update_threads
+        """Torch intra-op threads during the update and the fits (None: leave torch's setting); collection keeps
+        torch's setting (``wqwarp.utils.threads``: the physics threads run then)."""
+        self.learners: list[EstimatorLearner | GaitSelectorLearner] = []
+        """The extensions, in the order they fit (:meth:`attach`)."""
+        self.aux_losses: dict[str, float] = {}
+        """Losses of the last fits of the extensions."""
+        self.iteration = 0
+        """PPO iteration the coming rollout belongs to (the temperature schedule's position)."""
+
+    @staticmethod
+    def construct_algorithm(obs: TensorDict, env: WheeledGo1Env, cfg: dict, device: str) -> WqPPO:
+        """rsl-rl's construction (actor, critic, storage; the class named in ``cfg``), then :meth:`attach`."""
+        alg = PPO.construct_algorithm(obs, env, cfg, device)
+        if not isinstance(alg, WqPPO):
+            raise TypeError(f"algorithm.class_name must name WqPPO or a subclass, got {type(alg).__name__}")
+        alg.attach(env)
+        return alg
+
+    def attach(self, env: WheeledGo1Env) -> None:
+        """Take the env's estimator trainer and gait selector as the extensions (estimator first)."""
+        self.learners = [EstimatorLearner(env.estimator_trainer), GaitSelectorLearner(env.gait_selector)]
+
+    def set_iteration(self, iteration: int) -> None:
+        """Start (or resume) counting PPO iterations at ``iteration``."""
+        self.iteration = int(iteration)
+        for learner in self.learners:
+            learner.set_iteration(self.iteration)
+
+    def update(self) -> dict[str, float]:
+        """PPO's update, then each extension's fit; returns PPO's mean losses and the extensions' losses."""
+        before = torch.get_num_threads()
+        if self.update_threads:
+            torch.set_num_threads(self.update_threads)
+        try:
+            loss_dict = super().update()
+            loss_dict.update(self.fit_extensions())
+        finally:
+            torch.set_num_threads(before)
+        return loss_dict
+
+    def fit_extensions(self) -> dict[str, float]:
+        """Fit every extension on the rollout just collected, average it across ranks, advance the schedules."""
+        out: dict[str, float] = {}
+        for learner in self.learners:
+            out.update(learner.fit())
+            if self.is_multi_gpu:
+                for module in learner.modules():
+                    sync_module(module, "average")
+        self.set_iteration(self.iteration + 1)
+        self.aux_losses = out
+        return out
+
+    def broadcast_parameters(self) -> None:
+        """rsl-rl's broadcast of actor and critic from rank 0, and of the extensions' networks."""
+        super().broadcast_parameters()
+        for learner in self.learners:
+            for module in learner.modules():
+                sync_module(module, "broadcast")
+
+    def save(self) -> dict:
+        saved = super().save()
+        for learner in self.learners:
+            saved.update(learner.state_dict())
+        return saved
+
+    def load(self, loaded_dict: dict, load_cfg: dict | None, strict: bool) -> bool:
+        """rsl-rl's load, then the extensions' (``load_cfg`` keys ``estimator`` and ``gait_selector``; ``rng``
+        restores the gait selector's random stream). Checkpoints of format 1 kept the extensions in ``infos``."""
+        if load_cfg is None:
+            load_cfg = {"actor": True, "critic": True, "optimizer": True, "iteration": True, "rnd": True,
+                        "estimator": True, "gait_selector": True, "rng": True}  # fmt: skip
+        infos = loaded_dict.get("infos") or {}
+        saved = {k: loaded_dict[k] if k in loaded_dict else infos.get(old) for k, old in LEGACY_KEYS.items()}
+        saved = {k: v for k, v in saved.items() if v is not None}
+        load_iteration = super().load(loaded_dict, load_cfg, strict)
+        for learner in self.learners:
+            if load_cfg.get(learner.key):
+                learner.load_state_dict(saved, strict, bool(load_cfg.get("rng")))
+        return load_iteration

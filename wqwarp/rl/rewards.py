@@ -1,0 +1,86 @@
+"""The reward-term registry: the paper's Table II, one entry per term (name, default weight, formula, NumPy reference).
+
+The entry is the one place a term is named. From :data:`TABLE_II` derive: the names and kernel columns
+(:data:`REWARD_TERMS`), the weight fields of ``wqwarp.rl.config.RewardConfig``, the logs
+(``Episode_Reward/<term>``), the CLI's ``--reward TERM=WEIGHT`` and the summing kernel
+(``wqwarp.kernels.rewards.make_reward_kernel``). Each term's computation is the ``@wp.func`` of the same name in
+``wqwarp.kernels.rewards`` (or the func given in the entry, for a term defined outside the package).
+
+Adding a term: one ``@wp.func`` in ``wqwarp.kernels.rewards`` and one :class:`RewardTerm` in :data:`TABLE_II`
+(plus its test in ``tests/kernels/test_rewards.py``). A term defined elsewhere (a study, a test) is passed to the
+env instead: ``WheeledGo1Env(cfg, reward_terms=(*TABLE_II, RewardTerm("mine", -1.0, "...", func=my_func)))``.
+
+This module imports no physics engine (``wqwarp.rl.config`` reads it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+Inputs = dict[str, np.ndarray]
+"""NumPy inputs of the references: the fields of ``wqwarp.kernels.rewards.RewardInputs`` by name (``sigma`` and
+``dt`` as floats), except the base frame, called ``v`` (``base_lin_vel``), ``w`` (``base_ang_vel``) and ``g``
+(``projected_gravity``), (N, 3) each."""
+
+
+@dataclass(frozen=True)
+class RewardTerm:
+    """One reward term r_k; the step reward is sum_k w_k r_k dt."""
+
+    name: str
+    """Term name: the weight field of ``RewardConfig``, the log ``Episode_Reward/<name>``, the func's name."""
+    weight: float
+    """Default weight w_k (the paper's Table II)."""
+    doc: str
+    """The formula and units (the help of the weight field)."""
+    reference: Callable[[Inputs], np.ndarray] | None = None
+    """NumPy version of r_k: inputs -> (N,) (tests compare the Warp func with it)."""
+    func: object = None
+    """The ``@wp.func`` computing r_k (signature of ``wqwarp.kernels.rewards``); None: the func called ``name`` in
+    ``wqwarp.kernels.rewards`` (so that this registry imports no Warp)."""
+
+    def resolve(self):
+        """The term's ``@wp.func``."""
+        if self.func is not None:
+            return self.func
+        from wqwarp.kernels import rewards as kernels
+
+        return getattr(kernels, self.name)
+
+
+def _track(x: Inputs, col: int, actual: np.ndarray) -> np.ndarray:
+    return np.exp(-x["sigma"] * (x["command"][:, col] - actual) ** 2)
+
+
+TABLE_II: tuple[RewardTerm, ...] = (
+    RewardTerm("track_vx", 2.0, "exp(-4 (v_x^cmd - v_x)^2), base frame.", lambda x: _track(x, 0, x["v"][:, 0])),
+    RewardTerm("track_vy", 2.0, "exp(-4 (v_y^cmd - v_y)^2).", lambda x: _track(x, 1, x["v"][:, 1])),
+    RewardTerm("track_wz", 3.0, "exp(-4 (w^cmd - w_z)^2).", lambda x: _track(x, 2, x["w"][:, 2])),
+    RewardTerm("residual", -0.3, "||a_t|| (L2 norm of the raw action).", lambda x: np.linalg.norm(x["action"], axis=1)),
+    RewardTerm("orientation", -2.0, "||g_xy||^2, projected gravity.", lambda x: (x["g"][:, :2] ** 2).sum(1)),
+    RewardTerm("lin_vel_z", -2.0, "v_z^2.", lambda x: x["v"][:, 2] ** 2),
+    RewardTerm("ang_vel_xy", -0.05, "||w_xy||^2.", lambda x: (x["w"][:, :2] ** 2).sum(1)),
+    RewardTerm("joint_acc", -2.5e-7, "||qdd||^2 over the 16 joints, finite difference over a policy step.",
+               lambda x: (((x["actuated_qd"] - x["prev_actuated_qd"]) / x["dt"]) ** 2).sum(1)),
+    RewardTerm("torques", -1e-5, "||tau||^2.", lambda x: x["torque_sq"]),
+    RewardTerm("action_smoothness", -0.01, "||a_t + a_{t-2} - 2 a_{t-1}||^2.",
+               lambda x: ((x["action"] + x["prev2_action"] - 2 * x["prev_action"]) ** 2).sum(1)),
+    RewardTerm("collision", -2.0, "Number of trunk / thigh / calf bodies touching the ground.",
+               lambda x: x["body_collision"].sum(1).astype(float)),
+    RewardTerm("energy", -1e-5, "||tau * qd||^2.", lambda x: x["power_sq"]),
+)  # fmt: skip
+"""The paper's Table II in kernel-column order."""
+
+REWARD_TERMS: tuple[str, ...] = tuple(t.name for t in TABLE_II)
+"""Names of the Table II terms, in the order of the reward kernel's output columns."""
+
+
+def check_terms(terms: tuple[RewardTerm, ...]) -> None:
+    """ValueError for duplicate term names."""
+    names = [t.name for t in terms]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"reward terms registered twice: {', '.join(dup)}")
