@@ -3,7 +3,7 @@
 References:
     Leg PD (Kp 40, Kd 1) and wheel velocity control: the paper's first author's public sim-to-sim harness,
     summarised in ``../shared/reference/SIMULATION_FACTS.md``. Joint order and torque limits:
-    ``wqwarp/constants.py`` (12 leg joints FR, FL, RR, RL x (hip, thigh, calf), then 4 wheels).
+    ``wqwarp/robot/constants.py`` (12 leg joints FR, FL, RR, RL x (hip, thigh, calf), then 4 wheels).
 
 Per physics substep, for actuated joint ``j`` of robot ``w``::
 

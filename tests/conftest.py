@@ -38,16 +38,9 @@ def cuda_device(request) -> str:
 def _save_untrained_checkpoint(path: str, cfg) -> str:
     """Write the checkpoint an untrained run of ``cfg`` (a ``wqwarp.rl.config.EnvConfig``) would save, as
     ``train/ppo_newton.py`` does (configuration, policy, estimator, predictor, layout); returns ``path``."""
-    import contextlib
-    import io
+    from helpers import quiet_runner
 
-    from wqwarp.rl.config import TrainConfig
-    from wqwarp.rl.env import WheeledGo1Env
-    from wqwarp.rl.runner import WqRunner
-
-    with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the networks
-        runner = WqRunner(WheeledGo1Env(cfg), TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu")
-    runner.save(str(path))
+    quiet_runner(cfg).save(str(path))
     return str(path)
 
 

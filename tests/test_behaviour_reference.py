@@ -7,40 +7,26 @@ change that is meant to change behaviour, and say so in the commit."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 import os
 import sys
 
+import helpers
 import numpy as np
 import pytest
-import torch
 
 REFERENCE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "first_iteration.npz")
 CASES = (("ours", 5), ("baseline", 7))
 
 
 def first_iteration(preset: str, seed: int) -> dict[str, np.ndarray]:
-    from wqwarp.rl.config import TrainConfig
-    from wqwarp.rl.env import WheeledGo1Env
-    from wqwarp.rl.presets import make_preset
-    from wqwarp.rl.runner import WqRunner
-
-    cfg = make_preset(preset)
-    cfg.sim.num_envs = 8
-    cfg.seed = seed
-    torch.manual_seed(seed)  # as train/ppo_newton.py
-    env = WheeledGo1Env(cfg)
-    with contextlib.redirect_stdout(io.StringIO()):
-        runner = WqRunner(env, TrainConfig(num_steps_per_env=8).rsl_rl_dict(), log_dir=None, device="cpu")
-        runner.learn(1)
+    runner = helpers.first_iteration(preset, num_envs=8, seed=seed, steps_per_env=8)
+    env = runner.env
     st = runner.alg.storage
     out = {"rewards": st.rewards, "obs": st.observations["policy"], "privileged": st.observations["privileged"],
            "actions": st.actions}  # fmt: skip
     nets = {"actor": runner.alg.actor, "critic": runner.alg.critic, "estimator": env.estimator}
-    predictor = getattr(env.gait_selector, "predictor", None)
-    if predictor is not None:
-        nets["predictor"] = predictor
+    if env.gait_selector.name == "predictive":
+        nets["predictor"] = env.gait_selector.predictor
     for name, net in nets.items():
         for k, v in net.state_dict().items():
             if v.is_floating_point():

@@ -3,25 +3,13 @@ checkpoint of the earlier format (the extensions' state in ``infos``) still load
 
 from __future__ import annotations
 
-import contextlib
-import io
-
 import pytest
 import torch
-
-from wqwarp.rl.config import TrainConfig
-from wqwarp.rl.env import WheeledGo1Env
-from wqwarp.rl.presets import make_preset
-from wqwarp.rl.runner import WqRunner
+from helpers import preset_runner
 
 
-def _runner(seed: int) -> WqRunner:
-    cfg = make_preset("ours")
-    cfg.sim.num_envs = 4
-    cfg.seed = seed
-    torch.manual_seed(seed)
-    with contextlib.redirect_stdout(io.StringIO()):
-        return WqRunner(WheeledGo1Env(cfg), TrainConfig().rsl_rl_dict(), log_dir=None, device="cpu")
+def _runner(seed: int):
+    return preset_runner("ours", num_envs=4, seed=seed)
 
 
 def test_another_gait_set_and_the_earlier_format(tmp_path):

@@ -201,3 +201,39 @@ def test_old_checkpoint_configs_still_read():
     cfg = env_config_from_dict(data, notes)
     assert cfg.action.phase_residual_mode == "increment" and "issue" not in " ".join(notes)
     assert dataclasses.asdict(env_config_from_dict(to_dict(make_preset("pmtg")))) == to_dict(make_preset("pmtg"))
+
+
+def test_gaits_tuned_on_the_differentiable_path_reach_the_resolved_config(tmp_path):
+    """``--env.gait.tuned PATH`` (repeatable) puts the tuned frequency, DF_swing and stance x in place of the gait
+    they were tuned from; the resolved config (what ``config.json`` and the checkpoints hold) carries them. A missing,
+    malformed or foreign file is one line naming the option, exit 2."""
+    import json
+    import os
+
+    from wqwarp.control.gaits import load_tuned_gait
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    trot, walk = (os.path.join(root, "docs", "studies", "diffsim", f"optimize_{g}_0.3.json")
+                  for g in ("trotting", "walking"))  # fmt: skip
+    args = parse_train_args("Title.\n\nEpilog.", ["--env.gait.tuned", trot, "--num-envs", "4", "--env.gait.tuned",
+                                                   walk])  # fmt: skip
+    env, _ = resolve_config(args)
+    tuned = [load_tuned_gait(trot), load_tuned_gait(walk)]
+    assert env.gait.library[1:] == tuple(tuned) and tuned[0].frequency != 1.2 and tuned[1].frequency != 0.8
+    library = to_dict(env)["gait"]["library"]
+    assert [g["name"] for g in library] == ["driving", "trotting", "walking"]
+    assert library[1]["df_swing"] == tuned[0].df_swing and env_config_from_dict(to_dict(env)).gait == env.gait
+    assert run_record(args)["args"]["tuned_gaits"] == [trot, walk]
+
+    (tmp_path / "bad.json").write_text("{not json")
+    (tmp_path / "other.json").write_text(json.dumps({"loss": 1.0}))
+    for path, match in ((tmp_path / "missing.json", "No such file"), (tmp_path / "bad.json", "not JSON"),
+                        (tmp_path / "other.json", "not a tuned gait")):  # fmt: skip
+        with pytest.raises(ValueError, match=rf"^--env.gait.tuned '{path}': .*{match}") as e:
+            resolve_config(_parse("--env.gait.tuned", str(path)))
+        assert "\n" not in str(e.value)
+    r = subprocess.run([sys.executable, os.path.join(root, "train", "ppo_newton.py"), "--env.gait.tuned",
+                        str(tmp_path / "missing.json"), "--log-dir", str(tmp_path / "run")], capture_output=True,
+                       text=True, cwd=root, timeout=120)  # fmt: skip
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--env.gait.tuned" in r.stderr, r.stderr
+    assert not (tmp_path / "run").exists()

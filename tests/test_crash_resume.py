@@ -13,11 +13,7 @@ import sys
 import time
 
 import torch
-
-from wqwarp.rl.config import TrainConfig
-from wqwarp.rl.env import WheeledGo1Env
-from wqwarp.rl.presets import make_preset
-from wqwarp.rl.runner import WqRunner
+from helpers import preset_runner
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TRAIN = os.path.join(ROOT, "train", "ppo_newton.py")
@@ -62,13 +58,8 @@ def test_sigkill_between_checkpoints_loses_at_most_one_interval_and_resumes(tmp_
     assert torch.load(log / f"model_{last + 2}.pt", weights_only=False)["iter"] == last + 2
 
 
-def _runner(seed: int) -> WqRunner:
-    cfg = make_preset("ours")
-    cfg.sim.num_envs = 8
-    cfg.seed = seed
-    torch.manual_seed(seed)
-    with contextlib.redirect_stdout(io.StringIO()):
-        return WqRunner(WheeledGo1Env(cfg), TrainConfig(num_steps_per_env=8).rsl_rl_dict(), log_dir=None, device="cpu")
+def _runner(seed: int):
+    return preset_runner("ours", num_envs=8, seed=seed, steps_per_env=8)
 
 
 def test_resume_restores_networks_optimisers_schedule_and_random_state(tmp_path):

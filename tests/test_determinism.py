@@ -3,29 +3,19 @@ networks) and the same evaluation numbers; another seed gives others."""
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import io
 
 import torch
+from helpers import first_iteration
 
 from wqwarp.eval.loading import make_policy_runner
 from wqwarp.eval.tracking import run_task
-from wqwarp.rl.config import TrainConfig
-from wqwarp.rl.env import WheeledGo1Env
 from wqwarp.rl.presets import make_preset
-from wqwarp.rl.runner import WqRunner
 
 
 def _first_iteration(seed: int) -> dict:
-    cfg = make_preset("ours")
-    cfg.sim.num_envs = 8
-    cfg.seed = seed
-    torch.manual_seed(seed)  # as train/ppo_newton.py
-    env = WheeledGo1Env(cfg)
-    with contextlib.redirect_stdout(io.StringIO()):
-        runner = WqRunner(env, TrainConfig(num_steps_per_env=8).rsl_rl_dict(), log_dir=None, device="cpu")
-        runner.learn(1)
+    runner = first_iteration("ours", num_envs=8, seed=seed, steps_per_env=8)
+    env = runner.env
     st = runner.alg.storage
     return {"rewards": st.rewards.clone(), "obs": st.observations["policy"].clone(), "actions": st.actions.clone(),
             "actor": {k: v.clone() for k, v in runner.alg.actor.state_dict().items()},

@@ -232,3 +232,39 @@ def test_physics_variants_are_one_registry_whose_overrides_are_recorded():
     assert all(v.doc for v in PHYSICS_VARIANTS.values())
     with pytest.raises(ValueError, match="unknown physics 'bullet'; choose from train, dt0.001"):
         physics_variant("bullet")
+
+
+def test_protocols_name_the_gaits_of_the_checkpoints_library(tmp_path, save_checkpoint):
+    """A checkpoint trained with a fourth gait is evaluated with its own library: ``--force-gait`` takes the new gait
+    (an unknown one is a one-line error naming the run's gaits), and the results of tracking, the timeline and the
+    energy map (one robot per gait and cell, the figure too) are labelled with the run's gait names."""
+    import io
+
+    from wqwarp.control.gaits import TABLE_I, Gait
+    from wqwarp.eval.protocols import make_options, run_protocol
+
+    cfg = make_preset("ours")
+    cfg.sim.num_envs = 1
+    cfg.gait.library = (*TABLE_I, Gait("pacing", (0.0, 0.5, 0.0, 0.5), df_swing=0.4, frequency=1.0))
+    path = str(save_checkpoint(tmp_path / "model_0.pt", cfg))
+    names = ["driving", "trotting", "walking", "pacing"]
+    log = io.StringIO()
+
+    track = run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vx", num_envs=2, seconds=2.1,
+                                                  force_gait="pacing"), log)  # fmt: skip
+    r = track["results"][0]
+    assert list(r["predicted_power"]) == names and r["gait_usage"]["pacing"] > 0.5
+    with pytest.raises(ValueError, match="--force-gait: unknown gait 'bounding'; known gaits: driving, .*, pacing"):
+        run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vx", num_envs=1, seconds=2.1,
+                                              force_gait="bounding"), log)  # fmt: skip
+
+    timeline = run_protocol("timeline", make_options("timeline", checkpoint=path, robots=1,
+                                                     segments="0.3,0,0:0.1"), log)  # fmt: skip
+    assert timeline["gait_names"] == names and list(timeline["segments"][0]["gait_usage"]) == names
+    assert set(timeline["series_robot0"]["gait_running"]) <= set(names)
+
+    png = tmp_path / "map.png"
+    emap = run_protocol("energymap", make_options("energymap", checkpoint=path, grid=2, seconds=0.2,
+                                                  png=str(png)), log)  # fmt: skip
+    cell = emap["cells"][0]
+    assert list(cell["measured_p_cost"]) == list(cell["predicted_p_cost"]) == names and png.stat().st_size > 0

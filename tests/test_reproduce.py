@@ -74,3 +74,13 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     assert "push pmtg seed 1" in capsys.readouterr().err
     assert "push pmtg seed 1" in (out / "RESULTS.md").read_text()  # listed as not run
     assert reproduce.main(["--presets", "nope"]) == 2
+
+
+def test_training_progress_reads_the_runs_metrics_not_its_console(tmp_path):
+    """The training stage's echo comes from ``metrics.jsonl`` (ProgressLogger's rows): the last iteration and an ETA
+    from the mean wall time of the latest iterations; nothing before the first row, a line cut short is skipped."""
+    assert reproduce.training_progress(str(tmp_path), 10) is None
+    rows = [{"iteration": k, "wall_s": w} for k, w in ((1, 100.0), *((k, 2.0) for k in range(2, 12)))]
+    (tmp_path / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows) + '{"iteration": 1')
+    assert reproduce.training_progress(str(tmp_path), 100) == "iteration 11/100, ETA 0:02:58"  # 89 x 2 s
+    assert reproduce.training_progress(str(tmp_path), 11) == "iteration 11/11, ETA 0:00:00"

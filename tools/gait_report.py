@@ -5,8 +5,9 @@ Usage::
 
     python tools/gait_report.py RUN_DIR [--last 100] [--json gait_report.json]
 
-Each value is the mean over the last ``--last`` logged iterations (the scalars are written once per iteration by
-``wqwarp.rl.runner.WqRunner``); a fixed-gait run reports its usage and switch counts too.
+Each value is the mean over the last ``--last`` logged iterations (the gait selector's ``Gait/*`` and ``Predictor/*``
+scalars are written once per iteration by ``wqwarp.rl.progress.ProgressLogger``, after the predictor's fit in
+``wqwarp.rl.algorithm.WqPPO``); a fixed-gait run reports its usage and switch counts too.
 """
 
 from __future__ import annotations

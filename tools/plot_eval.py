@@ -3,7 +3,7 @@ one bar per method.
 
 Usage::
 
-    python tools/plot_eval.py eval_baseline.json eval_pmtg.json eval_no_predictor.json --out fig4.png
+    python tools/plot_eval.py eval_baseline.json eval_pmtg.json eval_no_predictor.json --out fig5.png
 
 Each JSON is written by ``python train/evaluate.py --json``; the legend uses the preset recorded in it.
 """

@@ -26,7 +26,8 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from wqwarp.cli.args import doc_parser, output_problem
+from wqwarp.cli.args import doc_parser
+from wqwarp.utils.io import output_problem
 
 SCENARIOS = {"standing": ("driving", (0.0, 0.0, 0.0)), "drive_0.5": ("driving", (0.5, 0.0, 0.0)),
              "drive_1.0": ("driving", (1.0, 0.0, 0.0)), "trot_0": ("trotting", (0.0, 0.0, 0.0)),

@@ -8,7 +8,7 @@ Usage::
 For every physics step dt and taped horizon T [s]: one robot warms up for ``--warmup`` seconds (untaped) in the
 nominal gait at the command (v_x, 0, 0), then T seconds are taped. The tape's gradients of the horizon means of the
 smooth p_cost [W] and of the base v_x [m/s] with respect to the five gait parameters (h_b, h_s, f, DF_swing,
-stance x) are compared with central finite differences from the same start state (steps ``FD_STEP``, 1 % of each
+stance x) are compared with central finite differences from the same start state (steps ``FD_FRACTION``, 1 % of each
 parameter's scale). Reported per output: the cosine between the two gradient vectors (each parameter scaled by
 ``PARAM_SCALE`` so that the units compare), the relative error ||tape - fd|| / ||fd||, the cosine between the 1 %
 and a 0.1 % finite difference (``fd_consistency``: below ~0.9 the output is not smooth on that scale, and finite

@@ -24,7 +24,8 @@ import sys
 
 import numpy as np
 
-from wqwarp.cli.args import doc_parser, output_problem
+from wqwarp.cli.args import doc_parser
+from wqwarp.utils.io import output_problem
 
 COMMANDS = (-0.7, -0.5, -0.3, -0.1, 0.1, 0.3, 0.5, 0.7)
 

@@ -20,7 +20,8 @@ import math
 import sys
 import time
 
-from wqwarp.cli.args import doc_parser, output_problem
+from wqwarp.cli.args import doc_parser
+from wqwarp.utils.io import output_problem
 
 
 def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, decimation: int, seed: int,

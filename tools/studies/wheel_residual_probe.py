@@ -24,7 +24,6 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
     import torch
     import warp as wp
 
-    from wqwarp.control.gaits import GAIT_NAMES
     from wqwarp.eval.rollout import start_rollout
 
     env = runner.env
@@ -33,7 +32,7 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
     obs = start_rollout(env, cmd, seconds)
     keys = ("p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs", "p_joule_wheels")
     acc: dict = {k: [] for k in (*keys, "wheel_qd", "wheel_target", "wheel_torque", "wheel_action", "vx")}
-    usage = torch.zeros(len(GAIT_NAMES))
+    usage = torch.zeros(env.num_gaits)
     fell = torch.zeros(n, dtype=torch.bool)
     with torch.no_grad():
         for k in range(int(round(seconds / env.dt))):
@@ -51,9 +50,9 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
             acc["wheel_torque"].append(env.tv["joint_torque"][:, 12:].mean(0).tolist())
             acc["wheel_action"].append(a[:, 16:20].mean(0).tolist())
             acc["vx"].append(float(env.base_state()["lin_vel"][:, 0].mean()))
-            usage += torch.bincount(env.active_gait().cpu(), minlength=len(GAIT_NAMES)).float()
+            usage += torch.bincount(env.active_gait().cpu(), minlength=env.num_gaits).float()
     out = {k: np.round(np.mean(np.asarray(v), axis=0), 4).tolist() for k, v in acc.items()}
-    out["gait_usage"] = {g: float(usage[i] / usage.sum()) for i, g in enumerate(GAIT_NAMES)}
+    out["gait_usage"] = {g: float(usage[i] / usage.sum()) for i, g in enumerate(env.gait_names)}
     out["fell"] = int(fell.sum())
     out["p_cost"] = out["p_cost_legs"] + out["p_cost_wheels"]
     return out

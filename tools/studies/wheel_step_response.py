@@ -27,7 +27,8 @@ import sys
 
 import numpy as np
 
-from wqwarp.cli.args import doc_parser, output_problem
+from wqwarp.cli.args import doc_parser
+from wqwarp.utils.io import output_problem
 
 FLIP_TORQUE = 0.06
 """Torques below 1 % of the 6 N m limit [N m] do not count as a sign flip."""

@@ -7,6 +7,8 @@ import math
 import os
 import re
 
+from wqwarp.utils.io import output_problem
+
 NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
 """A negative number, also in scientific notation (argparse's own pattern takes ``-2e-5`` for an option)."""
 
@@ -28,33 +30,6 @@ class ArgumentParser(argparse.ArgumentParser):
         for path in paths:
             if path and (problem := output_problem(path)):
                 self.error(f"cannot write {path}: {problem}")
-
-
-def directory_problem(path: str) -> str | None:
-    """Why ``path`` cannot be used as an output directory (a file there, or its nearest existing ancestor not a
-    writable directory), or None. Creates nothing."""
-    full = os.path.abspath(path)
-    if os.path.exists(full) and not os.path.isdir(full):
-        return "is a file, not a directory"
-    parent = full
-    while not os.path.exists(parent):
-        parent = os.path.dirname(parent)
-    if not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK):
-        return f"cannot be written ({parent} is not a writable directory)"
-    return None
-
-
-def output_problem(path: str) -> str | None:
-    """Why a result file cannot be written at ``path`` (the path a folder, its folder missing, not a folder or not
-    writable), or None: checked before any work is done, so that a long run never ends in a failed write."""
-    full = os.path.abspath(path)
-    folder = os.path.dirname(full)
-    if os.path.isdir(full):
-        return "is a directory"
-    if not os.path.exists(folder):
-        return f"its directory {folder} does not exist"
-    problem = directory_problem(folder)
-    return f"its directory {problem}" if problem else None
 
 
 def parse_counts(text: str) -> list[int]:

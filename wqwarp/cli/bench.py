@@ -25,7 +25,8 @@ import time
 
 import numpy as np
 
-from wqwarp.cli.args import doc_parser, output_problem, parse_counts
+from wqwarp.cli.args import doc_parser, parse_counts
+from wqwarp.utils.io import output_problem
 
 
 def add_bench_options(ap: argparse.ArgumentParser, sizes: str) -> None:

@@ -26,9 +26,9 @@ import sys
 
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
 
-from wqwarp.cli.args import directory_problem, doc_parser
+from wqwarp.cli.args import doc_parser
 from wqwarp.robot import constants as C
-from wqwarp.utils.io import write_text_atomic
+from wqwarp.utils.io import directory_problem, write_text_atomic
 
 ROOT = "/wheeled_go1"
 TRUNK_SPAWN_Z = 0.5

@@ -46,7 +46,8 @@ import time
 import numpy as np
 
 from wqwarp import quiet_warp
-from wqwarp.cli.args import doc_parser, output_problem, repo_path
+from wqwarp.cli.args import doc_parser, repo_path
+from wqwarp.utils.io import output_problem
 
 quiet_warp()
 

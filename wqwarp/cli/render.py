@@ -47,9 +47,9 @@ import time
 
 import numpy as np
 
-from wqwarp.cli.args import doc_parser, output_problem
+from wqwarp.cli.args import doc_parser
 from wqwarp.eval.timeline import parse_segments
-from wqwarp.utils.io import atomic_path
+from wqwarp.utils.io import atomic_path, output_problem
 from wqwarp.viz import video
 
 EXTENSIONS = (".gif", ".mp4")
@@ -124,7 +124,6 @@ def render(args, segments, writer, progress=print) -> dict:
     from wqwarp import quiet_warp
 
     quiet_warp()
-    from wqwarp.control.gaits import GAIT_NAMES
     from wqwarp.eval.loading import make_policy_runner
     from wqwarp.eval.rollout import start_rollout
 
@@ -184,7 +183,7 @@ def render(args, segments, writer, progress=print) -> dict:
                         lines = [f"robot {i}  t {k * dt:5.2f} s" + (f"  falls {falls[i]}" if falls[i] else ""),
                                  f"cmd  vx {cmd[0]:+.2f} vy {cmd[1]:+.2f} wz {cmd[2]:+.2f}",
                                  f"meas vx {v[0]:+.2f} vy {v[1]:+.2f} wz {v[2]:+.2f}",
-                                 f"{GAIT_NAMES[int(gait[i])]}  {p:.0f} W"]  # fmt: skip
+                                 f"{env.gait_names[int(gait[i])]}  {p:.0f} W"]  # fmt: skip
                         tiles.append(video.draw_overlay(img, lines, text_font))
                     writer.append(np.concatenate(tiles, axis=1))
                     frames += 1

@@ -1,12 +1,14 @@
 """The command line of ``train/ppo_newton.py``: every field of the config tree (``--env.reward.energy -2e-5``,
 ``--env.sim.dt 0.001``, ``--train.max-iterations 10``) and the short flags that alias the most used ones
 (``--num-envs`` = ``--env.sim.num-envs``). The preset is applied first, then :data:`TRAIN_DEFAULTS`, then the
-options in command-line order (a later one wins). No physics is imported here.
+options in command-line order (a later one wins), then the gaits tuned on the differentiable path
+(``--env.gait.tuned PATH``). No physics is imported here.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import shlex
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -22,10 +24,12 @@ from wqwarp.cli.config_args import (
     option_name,
     value_at,
 )
-from wqwarp.rl.config import EnvConfig, TrainConfig
+from wqwarp.rl.config import EnvConfig, GaitConfig, TrainConfig
 from wqwarp.rl.presets import PRESETS, make_preset, preset_help
 from wqwarp.rl.rewards import REWARD_TERMS
 
+TUNED_FLAG = "--env.gait.tuned"
+"""Option that adds a gait tuned on the differentiable path to the run's library (the library itself is no flag)."""
 TRAIN_DEFAULTS: dict[str, object] = {"env.sim.num_envs": 128}
 """Where the training command's defaults differ from the config's own (dotted path -> value)."""
 DEFAULT_PRESET = "ours"
@@ -55,7 +59,7 @@ ALIASES: tuple[Alias, ...] = (
           "debug: feed the true base velocity and height to the policy instead of the estimator's"),
     Alias("--phase-residual", "env.action.phase_residual_mode", "how the policy's phase residual enters the gait "
           "phase: offset (an offset from the gait clock, as the authors' generator PMTG.py) or increment (accumulated "
-          "every policy step: the policy can stop the gait clock, see docs)"),
+          "every policy step: the policy can stop the gait clock, see docs/method.md)"),
     Alias("--power-normalization", "env.predictor.power_normalization", "predictive presets: softmax over p_est / "
           "mean(p_est) (mean: tau is scale-free) or over p_est in W (watts: the paper's formula literally; collapses "
           "on driving early)"),
@@ -93,6 +97,22 @@ class _RewardWeight(argparse.Action):
         namespace.reward = [*getattr(namespace, "reward", []), value]
 
 
+def tuned_gait_config(gait: GaitConfig, path: str) -> GaitConfig:
+    """``gait`` with the gait tuned in ``path`` (``GaitConfig.with_tuned``); ValueError with one line naming
+    :data:`TUNED_FLAG` and the path for a missing, unreadable or malformed file."""
+    try:
+        return gait.with_tuned(path)
+    except OSError as e:
+        raise ValueError(f"{TUNED_FLAG} {path!r}: {e.strerror or e}") from None
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{TUNED_FLAG} {path!r}: not JSON ({e.msg}, line {e.lineno})") from None
+    except (KeyError, TypeError, AttributeError) as e:
+        what = f"no {e}" if isinstance(e, KeyError) else str(e)
+        raise ValueError(f"{TUNED_FLAG} {path!r}: not a tuned gait (tools/optimize_gait.py JSON): {what}") from None
+    except ValueError as e:  # a gait the library lacks, or tuned values no gait may have
+        raise ValueError(f"{TUNED_FLAG} {path!r}: {e}") from None
+
+
 def default_roots(preset: str = DEFAULT_PRESET) -> dict[str, object]:
     """The config trees of a run before its command-line options: ``preset``, then :data:`TRAIN_DEFAULTS`."""
     roots: dict[str, object] = {"env": make_preset(preset), "train": TrainConfig()}
@@ -117,15 +137,16 @@ def build_parser(doc: str, prog: str = "ppo_newton.py") -> ArgumentParser:
     p.add_argument("--threads", type=int, default=None, help="CPU threads of torch and of the physics together "
                    "(default: torch 1 while collecting and half the cores in the PPO update, physics every core; cores "
                    "are shared among torchrun's processes; measured within 1.2x of the best setting idle and with a "
-                   "core busy, docs 'Speed and threads'). More torch threads than free cores slows training ~2x (the "
-                   "PPO update 2-3x) when another process holds a core")  # fmt: skip
+                   "core busy, docs/performance.md 'Speed and threads'). More torch threads than free cores slows "
+                   "training ~2x (the PPO update 2-3x) when another process holds a core")  # fmt: skip
     p.add_argument("--torch-threads", type=int, default=None, help="torch intra-op threads during collection "
                    "(policy and estimator inference; overrides --threads)")  # fmt: skip
     p.add_argument("--update-threads", type=int, default=None, help="torch intra-op threads during the PPO update "
                    "and the estimator / predictor fits (default: half the cores, 1 on 2 cores; overrides --threads)")
     p.add_argument("--physics-threads", type=int, default=None,
                    help="mujoco.rollout threads (CPU; overrides --threads and --env.sim.nthread)")  # fmt: skip
-    p.add_argument("--no-export", action="store_true", help="skip the TorchScript / ONNX export at the end")
+    p.add_argument("--no-export", action="store_true", help="skip the onboard-policy export at the end "
+                   "(export/policy.onnx, policy.pt2 through torch.export, policy.json)")  # fmt: skip
     short = p.add_argument_group("short flags", "aliases of the config options below (the same destination: the "
                                  "later one on the command line wins)")  # fmt: skip
     for a in ALIASES:
@@ -140,6 +161,12 @@ def build_parser(doc: str, prog: str = "ppo_newton.py") -> ArgumentParser:
     short.add_argument("--reward", metavar="TERM=WEIGHT", action=_RewardWeight, default=argparse.SUPPRESS,
                        help="override one weight of the paper's Table II, e.g. --reward energy=-1e-4 (repeatable; = "
                        f"--env.reward.TERM; terms: {', '.join(REWARD_TERMS)})")  # fmt: skip
+    p.add_argument(TUNED_FLAG, dest="tuned_gaits", metavar="PATH", action="append", default=[],
+                   help="a gait tuned on the differentiable path (tools/optimize_gait.py JSON, e.g. "
+                   "docs/studies/diffsim/optimize_trotting_0.3.json): its frequency, DF_swing and stance x replace "
+                   "those of the library gait it was tuned from (GaitConfig.with_tuned; repeatable, applied in order "
+                   "after every other option; its h_b and h_s are not applied: set --env.gait.body-height / "
+                   "--env.gait.swing-height)")  # fmt: skip
     add_config_arguments(p, shown, note=f"Defaults shown are the {DEFAULT_PRESET} preset's with the training "
                          "command's own; --preset replaces them.")  # fmt: skip
     return p
@@ -165,6 +192,8 @@ def resolve_config(args: argparse.Namespace) -> tuple[EnvConfig, TrainConfig]:
     if any(value_at(roots, path) < 1 for path in POSITIVE):
         raise ValueError("--num-envs, --max-iterations, --save-interval and --num-steps-per-env must be positive")
     env, train = roots["env"], roots["train"]
+    for path in getattr(args, "tuned_gaits", []):
+        env.gait = tuned_gait_config(env.gait, path)
     env.validate()
     train.validate()
     for a in ALIASES:

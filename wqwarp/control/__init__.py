@@ -1,1 +1,1 @@
-"""Gait control: the paper's gait library and the batched nominal-gait controller."""
+"""Gait control: the paper's gait library as data, the batched nominal-gait controller and the open-loop driver."""

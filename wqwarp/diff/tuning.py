@@ -13,8 +13,8 @@ window is kept short (``TuneConfig.horizon_s``, 0.1 s) because longer windows th
 no longer match finite differences (``tools/studies/gradient_study.py``, ``docs/studies/diffsim/``); spreading the
 windows over the gait cycle averages the gradient over the phases, which a single short window would not see.
 
-:func:`evaluate` measures a parameter set with the project's closed-loop nominal gait (``wqwarp.nominal.
-NominalGait``, Eq. (1)-(3) with contact-dependent wheel speeds) on any ``Simulator`` backend, with the exact p_cost,
+:func:`evaluate` measures a parameter set with the project's closed-loop nominal gait (``wqwarp.control.driver.
+OpenLoopDriver``, Eq. (1)-(3) with contact-dependent wheel speeds) on any ``Simulator`` backend, with the exact p_cost,
 so that a gain found on the differentiable solver can be checked on MuJoCo.
 """
 

@@ -3,12 +3,13 @@ predictor's estimate of it, and the gait that wins.
 
 Two command planes: (v_x, v_y) at w = 0 and (v_x, w) at v_y = 0, ``grid`` values per axis over the paper's
 evaluation ranges (v_x [-1, 1] m/s, v_y [-0.7, 0.7] m/s, w [-0.7, 0.7] rad/s). Every cell runs one robot per gait
-(driving, trotting, walking), the gait forced for the whole rollout, all robots in one batch, commands held, no
-randomisation. Measured per robot over the second half of ``seconds``: mean p_cost (legs and wheels), the squared
-velocity error, and whether the trunk touched the ground. Predicted: the mean over the same steps of the predictor's
-output for that gait, from the observations of the cell's three robots. The measured winner is the cheapest gait
-whose robot stayed up, the tracking winner the cheapest whose robot also tracked its command (squared velocity error
-at most :data:`TRACKING_LIMIT`); the predicted winner is the argmin of the predictions (what the policy would select).
+of the checkpoint's library (Table I: driving, trotting, walking), the gait forced for the whole rollout, all robots
+in one batch, commands held, no randomisation. Measured per robot over the second half of ``seconds``: mean p_cost
+(legs and wheels), the squared velocity error, and whether the trunk touched the ground. Predicted: the mean over
+the same steps of the predictor's output for that gait, from the observations of the cell's robots. The measured
+winner is the cheapest gait whose robot stayed up, the tracking winner the cheapest whose robot also tracked its
+command (squared velocity error at most :data:`TRACKING_LIMIT`); the predicted winner is the argmin of the
+predictions (what the policy would select).
 Energy alone can favour a gait that does not do the task (driving under a lateral command stands still, cheaply):
 the figure marks such cells.
 
@@ -100,7 +101,7 @@ def summarise_cells(cells: list, gaits: list[str], m: dict) -> list[dict]:
         cell = {k: v[i * g : (i + 1) * g] for k, v in m.items()}
         per = {key: {gaits[k]: float(cell[key][k]) for k in range(g)} for key in ("p", "legs", "wheels", "err",
                                                                                   "wrong_gait")}  # fmt: skip
-        predicted = {gaits[k]: float(cell["pred"].mean(0)[k]) for k in range(g)}  # from all three robots' obs
+        predicted = {gaits[k]: float(cell["pred"].mean(0)[k]) for k in range(g)}  # from all the cell's robots' obs
         up = [k for k in range(g) if not bool(cell["fell"][k])]
         ok = [k for k in up if float(cell["err"][k]) <= TRACKING_LIMIT]
         out.append({
@@ -130,14 +131,13 @@ class EnergyMapOptions(ProtocolOptions):
 
 def energy_map(opts: EnergyMapOptions, log: TextIO = sys.stdout) -> dict:
     """Per command cell of :func:`grid_commands`: each gait's measured and predicted power and the winners."""
-    from wqwarp.control.gaits import GAIT_NAMES
-    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.loading import checkpoint_gait_names, make_policy_runner
     from wqwarp.rl.config import to_dict
 
     opts.validate()
     t0 = time.time()
     cells = grid_commands(opts.grid)
-    gaits = list(GAIT_NAMES)
+    gaits = list(checkpoint_gait_names(opts.checkpoint))  # one robot per gait of the run's library and cell
     g = len(gaits)
     runner = make_policy_runner(opts.checkpoint, None, len(cells) * g, opts.device, seed=opts.seed)
     dev = runner.env.device
@@ -195,7 +195,7 @@ def draw_energy_map(result: dict, path: str, command: str | None = None) -> None
             fig.colorbar(im, ax=ax[row, col], fraction=0.046)
         win = np.array([[gaits.index(at[(u, v)]["measured_winner"]) if at[(u, v)]["measured_winner"] else -1
                          for u in us] for v in vs])  # fmt: skip
-        cmap = ListedColormap(["#dddddd", "#1f77b4", "#ff7f0e", "#2ca02c"][: len(gaits) + 1])
+        cmap = ListedColormap(["#dddddd", *plt.get_cmap("tab10").colors[: len(gaits)]])  # grey: no gait stayed up
         ax[row, -1].imshow(win + 1, origin="lower", cmap=cmap, vmin=0, vmax=len(gaits), aspect="auto")
         for i, v in enumerate(vs):
             for j, u in enumerate(us):

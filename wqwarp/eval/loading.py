@@ -61,6 +61,14 @@ def checkpoint_env_config(path: str) -> EnvConfig:
     return cfg
 
 
+def checkpoint_gait_names(path: str) -> tuple[str, ...]:
+    """Names of the gait library a checkpoint was trained with, by gait id (to size a batch before the env is
+    built); ValueError as :func:`make_policy_runner` for a missing or unreadable checkpoint."""
+    if not os.path.isfile(path):
+        raise ValueError(f"no such checkpoint: {path}")
+    return tuple(g.name for g in checkpoint_env_config(path).gait.library)
+
+
 def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, device: str = "cpu",
                        cfg: EnvConfig | None = None, dt: float | None = None,
                        evaluation_selection: str | None = None, physics: str = "train",

@@ -79,7 +79,7 @@ def run_protocol(name: str, opts: ProtocolOptions, log: TextIO = sys.stdout, com
     """Run protocol ``name`` with ``opts``: validate them and check every output is writable (ValueError with a
     one-line message, before any work), run, write the JSON result (``opts.json``) and the figure (``png``) with
     ``command`` as their provenance (default :func:`equivalent_command`). Returns the result."""
-    from wqwarp.cli.args import output_problem
+    from wqwarp.utils.io import output_problem
     from wqwarp.utils.provenance import write_result_json
 
     p = protocol(name)

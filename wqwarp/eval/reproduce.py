@@ -12,8 +12,8 @@ Stages, in order (``--stages`` picks some): ``train`` (``train/ppo_newton.py`` p
 per evaluation protocol (``wqwarp.eval.protocols``): ``tracking`` (stand, v_x, v_y, w tasks, power per joint group,
 cost of transport), ``push`` (Table III), ``sim2sim`` (the ``ours`` checkpoints under the paper's dt 0.001 x 20 and
 under the authors' joint model, deltas against the training physics), ``timeline`` (the paper's Fig. 6: one robot,
-stand -> forward -> rotate -> lateral), ``energymap`` (per gait measured and predicted power over a (v_x, v_y, w)
-grid and the winning gait) and ``report`` (``RESULTS.md``, ``results.json``, PNGs).
+stand -> forward -> rotate -> lateral), ``energymap`` (per gait measured and predicted power over a (v_x, v_y) and a
+(v_x, w) grid, and the winning gait) and ``report`` (``RESULTS.md``, ``results.json``, PNGs).
 
 Training runs ``train/ppo_newton.py`` in a child process; each evaluation calls its protocol in this process. Every
 stage's output goes to a log next to its result, and its result is written atomically under ``--work`` with the
@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import datetime
 import glob
 import json
 import os
@@ -126,28 +127,46 @@ def final_checkpoint(work: str, preset: str, seed: int, budget: Budget) -> str:
     return os.path.join(run_dir(work, preset, seed), f"model_{budget.iterations - 1}.pt")
 
 
+ETA_ITERATIONS = 10
+"""Iterations whose mean wall time gives a training stage's ETA."""
+
+
+def training_progress(run: str, total: int) -> str | None:
+    """``"iteration k/N, ETA h:mm:ss"`` of the training run in folder ``run`` from its ``metrics.jsonl``
+    (``wqwarp.rl.progress.read_metrics``): k the last iteration written, the ETA the mean wall time of the last
+    :data:`ETA_ITERATIONS` iterations [s] times the ``total - k`` left; None before the first iteration."""
+    from wqwarp.rl.progress import read_metrics
+
+    rows = read_metrics(run)
+    if not rows:
+        return None
+    it = int(rows[-1]["iteration"])
+    walls = [r["wall_s"] for r in rows[-ETA_ITERATIONS:] if r.get("wall_s") is not None]
+    eta = sum(walls) / len(walls) * max(total - it, 0) if walls else 0.0
+    return f"iteration {it}/{total}, ETA {datetime.timedelta(seconds=round(eta))}"
+
+
 @contextlib.contextmanager
-def stage_log(log: str, label: str, command: str, progress_pattern: str | None = None) -> Iterator[TextIO]:
+def stage_log(log: str, label: str, command: str, progress: Callable[[], str | None] | None = None) -> Iterator[TextIO]:
     """The log file of one stage (appended to, headed by ``$ python command``), with a start and an end line on the
-    console; progress lines matching ``progress_pattern`` in the log are echoed on a terminal while it runs."""
+    console; on a terminal, ``progress()`` (e.g. :func:`training_progress`) is echoed every 5 s while it runs when
+    it has changed."""
     os.makedirs(os.path.dirname(os.path.abspath(log)), exist_ok=True)
     print(f"[{time.strftime('%H:%M:%S')}] {label}: python {command}", flush=True)
     stop = threading.Event()
 
     def echo() -> None:
-        last = ""
+        last = None
         while not stop.wait(5.0):
-            with open(log, encoding="utf-8", errors="replace") as r:
-                r.seek(max(0, os.path.getsize(log) - 4000))
-                hits = re.findall(progress_pattern, r.read())
-            if hits and hits[-1] != last:
-                last = hits[-1]
-                print(f"\r  {label}: {last}   ", end="", flush=True)
+            now = progress()
+            if now is not None and now != last:
+                last = now
+                print(f"\r  {label}: {now}   ", end="", flush=True)
 
     with open(log, "a", encoding="utf-8") as f:
         f.write(f"\n$ python {command}\n")
         f.flush()
-        if progress_pattern and sys.stdout.isatty():
+        if progress is not None and sys.stdout.isatty():
             threading.Thread(target=echo, daemon=True).start()
         try:
             yield f
@@ -181,7 +200,7 @@ def stage_train(args, budget: Budget, preset: str, seed: int) -> bool:
         cmd += ["--max-iterations", str(budget.iterations)]
     cmd += ["--save-interval", str(max(1, min(50, budget.iterations // 4)))]
     t0, label, log = time.time(), f"train {preset} seed {seed}", d + ".log"
-    with stage_log(log, label, " ".join(cmd), r"\] (\d+/\d+ ETA [0-9:]+)") as f:
+    with stage_log(log, label, " ".join(cmd), lambda: training_progress(d, budget.iterations)) as f:
         code = subprocess.run([sys.executable, repo_path(cmd[0]), *cmd[1:]], stdout=f, stderr=subprocess.STDOUT,
                               cwd=repo_path()).returncode  # fmt: skip
     return _report_status(label, code == 0, log, t0, code) and os.path.isfile(final)

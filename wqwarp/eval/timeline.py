@@ -16,7 +16,6 @@ from typing import TextIO
 
 import torch
 
-from wqwarp.control.gaits import GAIT_NAMES
 from wqwarp.eval.options import ProtocolOptions, option
 from wqwarp.eval.rollout import base_velocity, evaluation_session, start_rollout
 
@@ -63,7 +62,7 @@ def run_timeline(runner, segments: Segments) -> tuple[list[dict], dict, torch.Te
 
 def _run_timeline(runner, segments: Segments) -> tuple[list[dict], dict, torch.Tensor]:
     env = runner.env
-    names = GAIT_NAMES  # also without a nominal gait (active_gait() is then 0), as the figure's rows
+    names = env.gait_names  # the run's library, also without a nominal gait (active_gait() is then 0)
     n = env.num_envs
     total = sum(s for _, s in segments)
     obs = start_rollout(env, torch.tensor([segments[0][0]] * n, dtype=torch.float32), total)
@@ -145,7 +144,8 @@ def timeline(opts: TimelineOptions, log: TextIO = sys.stdout) -> dict:
               f"{s['mean_p_cost_wheels']:6.1f} {s['mean_sq_velocity_error']:7.3f}  {gaits}", file=log)  # fmt: skip
     return {"checkpoint": opts.checkpoint, "preset": runner.preset, "iteration": runner.iteration,
             "robots": opts.robots, "seed": opts.seed, "fell": int(fell.sum()), "segments": summary,
-            "series_robot0": series, "wall_time_s": time.time() - t0, "config": to_dict(runner.env.cfg)}  # fmt: skip
+            "gait_names": list(runner.env.gait_names), "series_robot0": series, "wall_time_s": time.time() - t0,
+            "config": to_dict(runner.env.cfg)}  # fmt: skip
 
 
 def draw_timeline(out: dict, path: str, command: str | None = None) -> None:
@@ -159,7 +159,7 @@ def draw_timeline(out: dict, path: str, command: str | None = None) -> None:
     from wqwarp.utils.provenance import save_figure
 
     s = out["series_robot0"]
-    names = GAIT_NAMES
+    names = out["gait_names"]
     t = np.array(s["t"])
     fig, ax = plt.subplots(4, 1, figsize=(9, 7.5), sharex=True)
     cmd, v = np.array(s["command"]), np.array(s["v"])

@@ -17,7 +17,7 @@ from typing import TextIO
 
 import torch
 
-from wqwarp.control.gaits import GAIT_NAMES
+from wqwarp.control.gaits import gait_index
 from wqwarp.eval.metrics import PUSH_TASKS, TASKS, EvalResult, TaskMetrics, check_task, physics_delta
 from wqwarp.eval.options import ProtocolOptions, option
 from wqwarp.eval.physics import PHYSICS_VARIANTS, physics_variant
@@ -133,9 +133,9 @@ class TrackingOptions(ProtocolOptions):
                               "artefact of the time step (the paper trains at 0.001)")  # fmt: skip
     sample_gaits: bool = option(False, help="predictive presets: sample gaits from softmax(-p/tau) at the "
                                 "checkpoint's tau instead of the argmin (the default, tau -> 0)")  # fmt: skip
-    force_gait: str | None = option(None, choices=GAIT_NAMES, help="predictive presets, diagnostics: run this gait "
-                                    "instead of the selected one; the predictor's forecast for it is reported beside "
-                                    "the realised power")  # fmt: skip
+    force_gait: str | None = option(None, help="predictive presets, diagnostics: run this gait of the checkpoint's "
+                                    "library instead of the selected one; the predictor's forecast for it is "
+                                    "reported beside the realised power")  # fmt: skip
 
     def __post_init__(self) -> None:
         if self.seconds is None:
@@ -197,7 +197,12 @@ def _load(opts: TrackingOptions, phys: str):
     for name, wanted in (("--sample-gaits", opts.sample_gaits), ("--force-gait", opts.force_gait)):
         if wanted and not predictive:
             raise ValueError(f"{name} needs a predictive preset, not {runner.preset}")
-    return runner, (GAIT_NAMES.index(opts.force_gait) if opts.force_gait else None)
+    if not opts.force_gait:
+        return runner, None
+    try:
+        return runner, gait_index(opts.force_gait, runner.env.cfg.gait.library)
+    except ValueError as e:
+        raise ValueError(f"--force-gait: {e}") from None
 
 
 def _evaluate(opts: TrackingOptions, log: TextIO, protocol: str) -> dict:

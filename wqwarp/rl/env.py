@@ -5,7 +5,7 @@ Lifecycle of :meth:`WheeledGo1Env.step`: actions -> (nominal gait + residuals ->
 bookkeeping and resets -> commands and pushes (``wqwarp.rl.commands``, ``wqwarp.rl.events``) -> estimator ->
 observations -> gait selection on o_t (``wqwarp.rl.gait_selection``). Nothing learns inside ``step``: with
 ``collect_training_data`` set the env only stores training data for the estimator and the power predictor, which the
-runner fits. Simulator arrays cross to torch zero-copy.
+algorithm fits after PPO's update (``wqwarp.rl.algorithm.WqPPO``). Simulator arrays cross to torch zero-copy.
 
 Observation terms (actor o_t with the estimate z_t, critic x_t, their mirrors) are the registry
 ``wqwarp.rl.observations``; reward terms the registry ``wqwarp.rl.rewards`` (kernel funcs in
@@ -185,8 +185,8 @@ class WheeledGo1Env(VecEnv):
         """True while a training runner collects rollouts: the env stores (history, true state) pairs for the
         estimator and labelled power windows for the predictor, and the predictive selector samples at the
         schedule's temperature. False (the default: evaluation, playback, export) stores nothing, so nothing can
-        learn, and the selector uses ``predictor.evaluation_selection``. The learning itself happens in the runner
-        (``wqwarp.rl.runner.WqRunner``), never in :meth:`step`."""
+        learn, and the selector uses ``predictor.evaluation_selection``. ``WqRunner.learn`` sets it; the learning
+        itself happens in the algorithm after PPO's update (``wqwarp.rl.algorithm.WqPPO``), never in :meth:`step`."""
         return self._collect
 
     @collect_training_data.setter
@@ -254,9 +254,7 @@ class WheeledGo1Env(VecEnv):
         """Observe again, with every robot due for a gait selection, after networks were loaded into the env: the
         estimate in o_t and the gait each robot is reset into would otherwise come from the networks the env was
         built with (random initialisation), so the first seconds of a rollout would depend on torch's global RNG."""
-        due = getattr(self.gait_selector, "due", None)
-        if due is not None:
-            due[:] = True
+        self.gait_selector.request_selection()
         self._obs = self._observe()
 
     def _observe(self) -> TensorDict:

@@ -74,8 +74,7 @@ def onboard_module(runner: WqRunner) -> tuple[OnboardPolicy, list[str]]:
     env = runner.env
     actor = runner.alg.get_policy().as_onnx(verbose=False).to("cpu").eval()
     estimator = copy.deepcopy(env.estimator).to("cpu").eval()
-    s = env.cfg.obs.lin_vel_scale
-    z_scale = torch.tensor([s, s, 1.0])  # z_t = (v_x, v_y, h): velocities scaled as the command, height as is
+    z_scale = env.estimate_scale.detach().to("cpu").clone()  # z_t = (v_x, v_y, h) as the observation scales it
     split = env.estimate_index  # z_t is inserted at this column of o_t
     if env.gait_selector.name == "predictive":
         predictor = copy.deepcopy(env.gait_selector.predictor).to("cpu").eval()

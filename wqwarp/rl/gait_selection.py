@@ -21,9 +21,9 @@ the requested gait is in effect and no window is open; it is labelled with the r
 ``horizon`` policy steps, for the gait that ran. A window cut by a reset or by a gait switch is dropped, never
 labelled. With decision interval = horizon, every selection that is not cut yields one window.
 
-Learning happens in the runner, not in ``VecEnv.step``: the env only stores labelled windows while its
-``collect_training_data`` flag is set (``wqwarp.rl.runner.WqRunner.learn`` sets it), and the runner calls
-:meth:`GaitSelector.fit` after each PPO update.
+Learning happens in the algorithm, not in ``VecEnv.step``: the env only stores labelled windows while its
+``collect_training_data`` flag is set (``wqwarp.rl.runner.WqRunner.learn`` sets it), and the algorithm calls
+:meth:`GaitSelector.fit` after each PPO update (``wqwarp.rl.algorithm.GaitSelectorLearner``).
 """
 
 from __future__ import annotations
@@ -189,6 +189,8 @@ class GaitSelector:
 
     name = "none"
     num_gaits = 0
+    gen: torch.Generator | None = None
+    """The selector's own random stream (the predictive selector's softmax sampling); None when it draws nothing."""
 
     def record_step(self, p_cost, active, commands, reset, died) -> None:
         """After the physics of a policy step (before resets): p_cost (N,) [W], running gait (N,), commands (N, 3),
@@ -200,8 +202,11 @@ class GaitSelector:
     def select(self, obs: torch.Tensor, active: torch.Tensor) -> None:
         """Once o_t (N, D) is known: choose the gait of the robots that are due."""
 
+    def request_selection(self) -> None:
+        """Make every robot due for a selection at the next observation (after networks were loaded)."""
+
     def fit(self) -> dict[str, float]:
-        """Learn from the data recorded since the last call (runner, after each PPO update); returns losses."""
+        """Learn from the data recorded since the last call (the algorithm, after each PPO update); returns losses."""
         return {}
 
     def set_training(self, training: bool) -> None:
@@ -356,6 +361,9 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.in_gait[ids] = 0
 
     @torch.no_grad()
+    def request_selection(self) -> None:
+        self.due[:] = True
+
     def select(self, obs: torch.Tensor, active: torch.Tensor) -> None:
         active = active.long()
         self.prev_active = active.clone()  # resets restart robots in their requested gait

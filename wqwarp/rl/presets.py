@@ -73,7 +73,7 @@ class Preset:
     summary: str
     """One line for ``--help``."""
     selection_studies: bool = False
-    """Reproduction also runs the sim-to-sim check and the gait-selection figures (Fig. 5 timeline, energy map)."""
+    """Reproduction also runs the sim-to-sim check and the gait-selection figures (Fig. 6 timeline, energy map)."""
 
     @property
     def selector(self) -> str:

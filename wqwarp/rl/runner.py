@@ -137,7 +137,7 @@ class WqRunner(OnPolicyRunner):
         except ValueError as e:
             raise ValueError(f"{path}: {e}") from e
         rng = infos.get("rng") if restore_rng else None
-        selector_gen = getattr(self.env.gait_selector, "gen", None) if rng else None
+        selector_gen = self.env.gait_selector.gen if rng else None
         sel_rng = selector_gen.get_state() if selector_gen is not None else None  # as loaded, before the refresh
         self.env.refresh_after_load()
         if rng:  # after the refresh: the streams continue exactly where the checkpoint left them

@@ -10,7 +10,14 @@ from typing import Literal
 from wqwarp.robot import constants as C
 from wqwarp.utils.checked_config import CheckedConfig, check_positive, require
 
-Backend = Literal["auto", "mujoco_cpu", "mujoco_warp", "featherstone"]
+BACKEND_CLASSES: dict[str, str] = {
+    "mujoco_cpu": "wqwarp.sim.backends.mujoco_cpu:MujocoCpuBackend",
+    "mujoco_warp": "wqwarp.sim.backends.mujoco_warp:MujocoWarpBackend",
+    "featherstone": "wqwarp.sim.backends.featherstone:FeatherstoneBackend",
+}
+"""The physics backends, registered once: ``SimConfig.backend`` name -> its class as ``"module:Class"`` (imported
+by ``wqwarp.sim.backends``, never by reading a config). Adding a backend: its class and one entry here."""
+Backend = Literal[("auto", *BACKEND_CLASSES)]  # the choices of SimConfig.backend, derived from the registry
 JointModel = Literal["asset", "authors"]
 BACKENDS: tuple[str, ...] = typing.get_args(Backend)
 JOINT_MODELS: tuple[str, ...] = typing.get_args(JointModel)

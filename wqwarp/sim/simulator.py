@@ -33,7 +33,8 @@ from wqwarp.kernels.state import (
     scatter_state_rows,
 )
 from wqwarp.robot import asset as robot
-from wqwarp.sim.backends import BACKENDS, MujocoCpuBackend, PhysicsBackend
+from wqwarp.sim.backends import BACKENDS, PhysicsBackend
+from wqwarp.sim.backends.mujoco_cpu import MujocoCpuBackend
 from wqwarp.sim.buffers import BUFFER_NAMES, SimBuffers
 from wqwarp.sim.config import SimConfig
 from wqwarp.sim.model import apply_joint_model, index_array

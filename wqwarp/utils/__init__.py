@@ -1,1 +1,1 @@
-"""Small shared helpers: provenance of results, atomic writes, CPU threads."""
+"""Small shared helpers: provenance of results, atomic writes, validated config dataclasses, CPU threads."""

@@ -1,4 +1,5 @@
-"""Atomic writes: every file this project writes (checkpoints, exports, result JSON, figures, USD, logs' summaries)
+"""Output paths checked before any work (:func:`output_problem`, :func:`directory_problem`: a long run never ends in a
+failed write), and atomic writes: every file this project writes (checkpoints, exports, result JSON, figures, USD)
 goes to a temporary file in the same folder and is renamed over its target, so a crash never leaves a truncated or
 half-overwritten file and a failure never corrupts what exists."""
 
@@ -50,3 +51,30 @@ def write_text_atomic(path: str, text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` atomically."""
     with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8") as f:
         f.write(text)
+
+
+def directory_problem(path: str) -> str | None:
+    """Why ``path`` cannot be used as an output directory (a file there, or its nearest existing ancestor not a
+    writable directory), or None. Creates nothing."""
+    full = os.path.abspath(path)
+    if os.path.exists(full) and not os.path.isdir(full):
+        return "is a file, not a directory"
+    parent = full
+    while not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK):
+        return f"cannot be written ({parent} is not a writable directory)"
+    return None
+
+
+def output_problem(path: str) -> str | None:
+    """Why a result file cannot be written at ``path`` (the path a folder, its folder missing, not a folder or not
+    writable), or None: checked before any work is done, so that a long run never ends in a failed write."""
+    full = os.path.abspath(path)
+    folder = os.path.dirname(full)
+    if os.path.isdir(full):
+        return "is a directory"
+    if not os.path.exists(folder):
+        return f"its directory {folder} does not exist"
+    problem = directory_problem(folder)
+    return f"its directory {problem}" if problem else None

@@ -46,7 +46,7 @@ def configure_threads(
 ) -> dict[str, int]:
     """Resolve and apply the thread counts: ``threads`` sets both pools, ``torch_threads`` / ``physics_threads``
     override one. Sets torch's intra-op threads (collection) now; returns ``{"torch": T, "update": U, "physics": P}``:
-    U for ``WqRunner.update_threads`` (the PPO update and the fits), P for ``SimConfig.nthread``."""
+    U for ``WqPPO.update_threads`` (``runner.alg``: the PPO update and the fits), P for ``SimConfig.nthread``."""
     import torch
 
     for name, v in (("threads", threads), ("torch_threads", torch_threads), ("physics_threads", physics_threads),

@@ -1,1 +1,1 @@
-"""Visualisation: time-sampled USD rollouts."""
+"""Visualisation: time-sampled USD rollouts and offscreen videos (MuJoCo's renderer)."""

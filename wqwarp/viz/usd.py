@@ -35,9 +35,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from wqwarp.cli.args import output_problem
 from wqwarp.robot import constants as C
-from wqwarp.utils.io import atomic_path
+from wqwarp.utils.io import atomic_path, output_problem
 
 USD_EXTENSIONS: tuple[str, ...] = (".usda", ".usdc", ".usd")
 """Output formats: text, binary crate, and ``.usd`` (written as crate)."""
@@ -125,7 +124,7 @@ class RolloutRecorder:
     Usage: ``rec = RolloutRecorder.for_simulator(sim, seconds, fps)``; call :meth:`capture` with step 0 after reset
     and with step k after the k-th ``sim.step()`` (it stores only the steps some frame needs); then
     :meth:`write`. ``nominal`` (a :class:`wqwarp.control.nominal.NominalGait`) adds the gait, phase and command
-    attributes. """
+    attributes, the gaits named as in its library unless ``gait_names`` says otherwise."""
 
     def __init__(
         self,
@@ -145,11 +144,8 @@ class RolloutRecorder:
         self.fps = float(fps)
         self.seconds = float(seconds)
         self.policy_dt = float(policy_dt)
-        if gait_names is None:
-            from wqwarp.control.gaits import GAIT_NAMES
-
-            gait_names = GAIT_NAMES
-        self.gait_names = tuple(gait_names)
+        self.gait_names = None if gait_names is None else tuple(gait_names)
+        """Gait names by gait id; None: those of the library of the first nominal gait :meth:`capture` is given."""
         self.spacing = None if spacing is None else float(spacing)
         self.asset_path = asset_path
         self.steps = frame_steps(seconds, fps, policy_dt)
@@ -195,6 +191,8 @@ class RolloutRecorder:
         contact = sim.wheel_contact.numpy()
         if nominal is not None:
             self.has_gait = True
+            if self.gait_names is None:
+                self.gait_names = tuple(g.name for g in nominal.library)
             phase, command = nominal.phase.numpy(), nominal.command.numpy()
             gait, active = nominal.gait_id.numpy(), nominal.active_gait_id.numpy()
         for k in frames:
@@ -221,7 +219,8 @@ class RolloutRecorder:
 
     # --- stage authoring ----------------------------------------------------------------------------------------
     def _gait_name(self, gait_id: int) -> str:
-        return self.gait_names[gait_id] if 0 <= gait_id < len(self.gait_names) else f"gait_{gait_id}"
+        names = self.gait_names or ()
+        return names[gait_id] if 0 <= gait_id < len(names) else f"gait_{gait_id}"
 
     def build_stage(self, metadata: dict | None = None):
         """The stage in memory (``pxr.Usd.Stage``). ``metadata`` goes into ``customLayerData['wqwarp']``."""

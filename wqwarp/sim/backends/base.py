@@ -1,10 +1,10 @@
 """The interface every physics backend of :class:`wqwarp.sim.simulator.Simulator` implements.
 
-The simulator owns the Newton model and state, every per-robot buffer (``wqwarp.sim.simulator.SimBuffers``), the
+The simulator owns the Newton model and state, every per-robot buffer (``wqwarp.sim.buffers.SimBuffers``), the
 actuation and power kernels, the divergence check and the base-frame update; a backend owns only what its physics
 engine needs: it is built on a simulator whose model, state and buffers exist, and per policy step advances the
 state by ``decimation`` substeps and writes the contact summaries. Adding a backend: one subclass in its own module
-and one entry in ``wqwarp.sim.backends.BACKENDS`` (plus its name among ``SimConfig.backend``'s choices).
+and one entry in ``wqwarp.sim.config.BACKEND_CLASSES`` (its name, which is also a choice of ``SimConfig.backend``).
 """
 
 from __future__ import annotations
