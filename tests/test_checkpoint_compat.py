@@ -27,6 +27,14 @@ def test_another_gait_set_and_the_earlier_format(tmp_path):
         b.load(str(tmp_path / "other.pt"))
     assert "\n" not in str(e.value)
 
+    # the same names, other parameters (a tuned trot keeps its name): refused too, naming what differs
+    gait = dict(ckpt["infos"]["env_cfg"]["gait"])
+    gait["library"] = [dict(g, frequency=1.11) if g["name"] == "trotting" else g for g in gait["library"]]
+    tuned = dict(ckpt, infos=dict(ckpt["infos"], env_cfg=dict(ckpt["infos"]["env_cfg"], gait=gait)))
+    torch.save(tuned, tmp_path / "tuned.pt")
+    with pytest.raises(ValueError, match=r"another 'trotting' gait \(frequency 1.11 in the checkpoint, 1.2 here\)"):
+        b.load(str(tmp_path / "tuned.pt"))
+
     old = {k: v for k, v in ckpt.items() if not k.startswith(("estimator_", "gait_selector_"))}
     old["infos"] = dict(ckpt["infos"], format=1, estimator=ckpt["estimator_state_dict"],
                         estimator_optimizer=ckpt["estimator_optimizer_state_dict"],

@@ -9,8 +9,10 @@ env on load. The onboard policy is exported by ``wqwarp.rl.export``.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
+import numpy as np
 import torch
 from rsl_rl.runners import OnPolicyRunner
 
@@ -150,6 +152,18 @@ class WqRunner(OnPolicyRunner):
         return infos
 
 
+def gait_differences(saved: dict, current: dict) -> list[str]:
+    """``"<field> <saved> in the checkpoint, <current> here"`` for each parameter of one gait that differs."""
+    out = []
+    for key, value in current.items():
+        old = saved.get(key)
+        same = (old == value) if isinstance(value, str) else old is not None and bool(
+            np.allclose(np.asarray(old, dtype=float), np.asarray(value, dtype=float), rtol=0.0, atol=1e-9))
+        if not same:
+            out.append(f"{key} {old} in the checkpoint, {value} here")
+    return out
+
+
 def check_compatible(infos: dict, env: WheeledGo1Env, path: str) -> None:
     """Raise ValueError if a checkpoint was trained with another observation or action layout or gait set."""
     layout = [tuple(x) for x in infos.get("obs_layout", [])]
@@ -159,6 +173,10 @@ def check_compatible(infos: dict, env: WheeledGo1Env, path: str) -> None:
     if library is not None and [g["name"] for g in library] != list(env.gait_names):
         raise ValueError(f"{path} was trained with the gaits {[g['name'] for g in library]}, this env runs "
                          f"{list(env.gait_names)}")  # fmt: skip
+    for saved, gait in zip(library or [], env.cfg.gait.library, strict=False):
+        if differences := gait_differences(saved, dataclasses.asdict(gait)):
+            raise ValueError(f"{path} was trained with another {gait.name!r} gait ({'; '.join(differences)}): run "
+                             "the checkpoint's gait library (a tuned gait: --env.gait.tuned FILE)")  # fmt: skip
     if layout != [tuple(x) for x in env.obs_layout] or infos.get("num_actions") != env.num_actions:
         raise ValueError(f"{path} was trained with another observation/action layout ({infos.get('num_actions')} "
                          f"actions, {sum(k for _, k in layout)} observations) than this preset "
