@@ -94,6 +94,7 @@ def test_run_task_pushes_on_schedule_and_holds_its_commands(tmp_path, save_check
 
     cfg = make_preset("no_predictor")
     cfg.sim.num_envs = 1
+    torch.manual_seed(0)  # the untrained networks, so that whether a robot falls (and is reset) does not vary by run
     save_checkpoint(tmp_path / "model_0.pt", cfg)
     pr = make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=3)
     env = pr.env
@@ -139,6 +140,7 @@ def _settings(env) -> dict:
     return {"collect": env.collect_training_data, "max_episode_length": env.max_episode_length,
             "push_interval_steps": env.push_interval_steps, "held": env.held_commands,
             "forced_gait": sel.forced_gait, "steps": env.common_step_counter,
+            "last_active": None if sel.last_active is None else sel.last_active.tolist(),
             "rng": [env.gen.get_state().tolist(), sel.gen.get_state().tolist()],
             "requested": env.requested_gait().tolist()}  # fmt: skip
 

@@ -15,7 +15,8 @@ under the authors' joint model, deltas against the training physics), ``timeline
 stand -> forward -> rotate -> lateral), ``energymap`` (per gait measured and predicted power over a (v_x, v_y) and a
 (v_x, w) grid, and the winning gait) and ``report`` (``RESULTS.md``, ``results.json``, PNGs).
 
-Training runs ``train/ppo_newton.py`` in a child process; each evaluation calls its protocol in this process. Every
+Training runs ``train/ppo_newton.py`` in a child process (its progress on a terminal read from the run's
+``metrics.jsonl``, never from its console); each evaluation calls its protocol in this process. Every
 stage's output goes to a log next to its result, and its result is written atomically under ``--work`` with the
 equivalent command line; a stage whose result is already there is skipped, and an interrupted training resumes from
 its last checkpoint. Re-running the same command therefore continues where a crash or a time limit stopped it. A

@@ -360,10 +360,10 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.due[ids] = True
         self.in_gait[ids] = 0
 
-    @torch.no_grad()
     def request_selection(self) -> None:
         self.due[:] = True
 
+    @torch.no_grad()
     def select(self, obs: torch.Tensor, active: torch.Tensor) -> None:
         active = active.long()
         self.prev_active = active.clone()  # resets restart robots in their requested gait
