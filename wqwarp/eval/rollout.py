@@ -11,8 +11,6 @@ import numpy as np
 import torch
 import warp as wp
 
-from wqwarp.rl.gait_selection import FixedGaitSelector
-
 
 def base_velocity(env) -> torch.Tensor:
     """(N, 3) measured (v_x, v_y, w_z) of the base in its own frame [m/s, rad/s]."""
@@ -35,31 +33,17 @@ def _clone(t: torch.Tensor | None) -> torch.Tensor | None:
     return None if t is None else t.clone()
 
 
-def _generators(env) -> list[torch.Generator]:
-    """The random generators an evaluation draws from: the env's (spawn yaws, pushes, noise) and the predictive
-    selector's (sampled gaits)."""
-    gens = [env.gen]
-    if env.gait_selector.name == "predictive":
-        gens.append(env.gait_selector.gen)
-    return gens
-
-
 @contextlib.contextmanager
 def evaluation_session(env) -> Iterator[None]:
     """Run a protocol on ``env`` and leave it as it was found: learning flag, episode length, push schedule, held
     commands, forced gait, requested gaits, the gait-switch counter's last running gaits, phase residuals, step
     counter and the random generators are restored on exit (the robots' physical state is not: every rollout starts
     with :func:`start_rollout`, a reset)."""
-    sel = env.gait_selector
-    predictive = sel.name == "predictive"
     saved = {
         "collect": env.collect_training_data, "max_episode_length": env.max_episode_length,
         "push_interval_steps": env.push_interval_steps, "common_step_counter": env.common_step_counter,
-        "held": _clone(env.held_commands), "commands": env.commands.clone(),
-        "forced_gait": sel.forced_gait if predictive else None,
-        "rng": [g.get_state() for g in _generators(env)],
-        # the switch counter's memory of the running gait: a fresh selector does not compare its first step
-        "switches": (_clone(sel.last_active), sel.since_switch.clone()) if isinstance(sel, FixedGaitSelector) else None,
+        "held": _clone(env.held_commands), "commands": env.commands.clone(), "rng": env.gen.get_state(),
+        "selector": env.gait_selector.snapshot(),  # forced gait, switch memory, its random stream
         "gait_id": None if env.nominal is None else wp.to_torch(env.nominal.gait_id).clone(),
         # the phase residual of the last action: a reset keeps it, and the first observation shows it
         "phase_residual": None if env.nominal is None else wp.to_torch(env.nominal.phase_residual).clone(),
@@ -73,12 +57,8 @@ def evaluation_session(env) -> Iterator[None]:
         env.common_step_counter = saved["common_step_counter"]
         env.hold_commands(saved["held"])
         env.commands[:] = saved["commands"]
-        if predictive:
-            sel.forced_gait = saved["forced_gait"]
-        for g, state in zip(_generators(env), saved["rng"], strict=True):
-            g.set_state(state)
-        if saved["switches"] is not None:
-            sel.last_active, sel.since_switch = saved["switches"]
+        env.gen.set_state(saved["rng"])
+        env.gait_selector.restore(saved["selector"])
         if env.nominal is not None:
             wp.to_torch(env.nominal.gait_id)[:] = saved["gait_id"]
             wp.to_torch(env.nominal.phase_residual)[:] = saved["phase_residual"]

@@ -134,10 +134,10 @@ class WheeledGo1Env(VecEnv):
         """Column of o_t where z_t (3) is inserted into the proprioceptive observation."""
         self.proprio_dim = self.num_obs - dict(self.obs_layout)[ESTIMATE]
         self._proprio_terms = tuple(t for t in ACTOR_TERMS if t.name != ESTIMATE)
-        self.obs_mirror = obs_terms.mirror_matrix(ACTOR_TERMS, dims)
+        self.obs_mirror = obs_terms.mirror_matrix(ACTOR_TERMS, dims, dev)
         """(perm, signs) of the left-right mirror of o_t (``wqwarp.rl.observations``)."""
-        self.privileged_mirror = obs_terms.mirror_matrix(PRIVILEGED_TERMS, dims)
-        self.action_mirror = obs_terms.mirror_tensors(obs_terms.action_mirror(self.num_actions))
+        self.privileged_mirror = obs_terms.mirror_matrix(PRIVILEGED_TERMS, dims, dev)
+        self.action_mirror = obs_terms.mirror_tensors(obs_terms.action_mirror(self.num_actions), dev)
         H = cfg.obs.history_length
         self.history = torch.zeros(n, H, self.proprio_dim, device=dev)
         self.estimator = StateEstimator(H * self.proprio_dim, tuple(cfg.estimator.hidden_dims)).to(dev)

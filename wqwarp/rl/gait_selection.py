@@ -205,6 +205,13 @@ class GaitSelector:
     def request_selection(self) -> None:
         """Make every robot due for a selection at the next observation (after networks were loaded)."""
 
+    def snapshot(self) -> dict:
+        """What an evaluation protocol may change in this selector, to give back with :meth:`restore`."""
+        return {}
+
+    def restore(self, saved: dict) -> None:
+        """Give back the state :meth:`snapshot` took."""
+
     def fit(self) -> dict[str, float]:
         """Learn from the data recorded since the last call (the algorithm, after each PPO update); returns losses."""
         return {}
@@ -263,6 +270,14 @@ class FixedGaitSelector(GaitSelector):
         self.since_switch[ids] = 10**9
         if self.last_active is not None:
             self.last_active[ids] = self.requested[ids].long()
+
+    def snapshot(self) -> dict:
+        # the switch counter's memory of the running gait: a fresh selector does not compare its first step
+        last = None if self.last_active is None else self.last_active.clone()
+        return {"last_active": last, "since_switch": self.since_switch.clone()}
+
+    def restore(self, saved: dict) -> None:
+        self.last_active, self.since_switch = saved["last_active"], saved["since_switch"]
 
     def log_scalars(self) -> dict[str, float]:
         total = float(self.usage.sum())
@@ -359,6 +374,14 @@ class PredictiveGaitSelector(FixedGaitSelector):
         super().on_reset(ids)
         self.due[ids] = True
         self.in_gait[ids] = 0
+
+    def snapshot(self) -> dict:
+        return {**super().snapshot(), "forced_gait": self.forced_gait, "gen": self.gen.get_state()}
+
+    def restore(self, saved: dict) -> None:
+        super().restore(saved)
+        self.forced_gait = saved["forced_gait"]
+        self.gen.set_state(saved["gen"])
 
     def request_selection(self) -> None:
         self.due[:] = True

@@ -221,18 +221,19 @@ def compute_terms(env, terms: tuple[ObservationTerm, ...], base: dict) -> list[t
     return out
 
 
-def mirror_tensors(mirror: Mirror) -> tuple[torch.Tensor, torch.Tensor]:
-    """(perm (D,) long, signs (D,) float32) of a mirror."""
-    return torch.tensor(mirror[0], dtype=torch.long), torch.tensor(mirror[1], dtype=torch.float32)
+def mirror_tensors(mirror: Mirror, device: str = "cpu") -> tuple[torch.Tensor, torch.Tensor]:
+    """(perm (D,) long, signs (D,) float32) of a mirror, on ``device``."""
+    return (torch.tensor(mirror[0], dtype=torch.long, device=device),
+            torch.tensor(mirror[1], dtype=torch.float32, device=device))  # fmt: skip
 
 
-def mirror_matrix(terms: tuple[ObservationTerm, ...], dims: Dims) -> tuple[torch.Tensor, torch.Tensor]:
-    """(perm (D,) long, signs (D,) float32) of the concatenated terms."""
-    return mirror_tensors(concat(*(t.mirror_of(dims) for t in terms)))
+def mirror_matrix(terms: tuple[ObservationTerm, ...], dims: Dims, device: str = "cpu") -> tuple[torch.Tensor, ...]:
+    """(perm (D,) long, signs (D,) float32) of the concatenated terms, on ``device``."""
+    return mirror_tensors(concat(*(t.mirror_of(dims) for t in terms)), device)
 
 
 def apply_mirror(x: torch.Tensor, perm: torch.Tensor, signs: torch.Tensor) -> torch.Tensor:
-    """``x[..., perm] * signs`` on ``x``'s device."""
+    """``x[..., perm] * signs`` (the mirror moved to ``x``'s device if it is not there: the env keeps its own there)."""
     if x.shape[-1] != len(perm):
         raise ValueError(f"the mirror is over {len(perm)} columns, got {x.shape[-1]}")
     return x[..., perm.to(x.device)] * signs.to(x.device)

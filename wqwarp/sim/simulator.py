@@ -201,7 +201,7 @@ class Simulator(SimBuffers):
             joint_q = np.tile(self._default_q, (k, 1))
         if joint_qd is None:
             joint_qd = wp.zeros((k, lay.dofs_per_world), dtype=wp.float32, device=self.device)
-        self.set_state(ids, joint_q, joint_qd)
+        self._write_rows(ids, joint_q, joint_qd)
         actuation.launch_reset_wheel_pid(ids, self.wheel_integral, self.wheel_prev_error, self.device)
         wp.launch(clear_contact_rows, dim=k, inputs=[ids], outputs=[self.wheel_force, self.wheel_contact,
                   self.body_collision, self.unstable], device=self.device)  # fmt: skip
@@ -213,15 +213,20 @@ class Simulator(SimBuffers):
         """Overwrite the coordinates of robots ``env_ids`` ((k, 23) / (k, 22)) mid-episode (e.g. a push), keeping
         controller state. Accepts Warp arrays or torch tensors on the device (no host copy) or NumPy arrays."""
         ids = self._ids(env_ids)
-        k = ids.shape[0]
-        if k == 0:
+        if ids.shape[0] == 0:
             return
-        lay = self.layout
+        self._write_rows(ids, joint_q, joint_qd)
+        self._update_base_frame()
+
+    def _write_rows(self, ids: wp.array, joint_q, joint_qd) -> None:
+        """Scatter the coordinates of robots ``ids`` into Newton's state and hand them to the physics (the base frame
+        is left to the caller: a reset recomputes it once with the rest of :meth:`_post_step`)."""
+        k, lay = ids.shape[0], self.layout
         q = self._rows(joint_q, k, lay.coords_per_world, "joint_q")
         qd = self._rows(joint_qd, k, lay.dofs_per_world, "joint_qd")
         wp.launch(scatter_state_rows, dim=k, inputs=[ids, q, qd], outputs=[self.joint_q, self.joint_qd],
                   device=self.device)  # fmt: skip
-        self.state_written(ids)
+        self.physics.state_written(ids)
 
     def state_written(self, env_ids=None) -> None:
         """Tell the physics that ``joint_q`` / ``joint_qd`` of robots ``env_ids`` (default all) were written in place
