@@ -66,7 +66,7 @@ class NominalGait:
     def reset(self, env_ids, gait_id: int | np.ndarray | None = None) -> None:
         """Restart the phases of ``env_ids`` in gait ``gait_id`` (default: the currently requested gait).
         ``env_ids`` may be a Warp array or torch tensor on the device (no host copy) or a list / NumPy array."""
-        from wqwarp.sim.simulator import index_array
+        from wqwarp.sim.model import index_array
 
         ids = index_array(env_ids, self.device, self.world_count)
         if ids.shape[0] == 0:
