@@ -119,6 +119,21 @@ def swing_x(psi: float, amplitude: float) -> float:
 
 
 @wp.func
+def lateral_stroke(phi: float, df_swing: float, amplitude: float) -> float:
+    """Lateral feed-forward of a stepping leg's foot point [m] (an option, not in the paper): a sawtooth locked to
+    the leg phase, from -A to +A over swing (psi = phi / DF_swing) and back from +A to -A over stance, so the stance
+    legs push the body toward +A. Continuous at lift-off and touch-down; 0 without swing (DF_swing = 0, driving).
+
+    phi leg phase [cycles], df_swing DF_swing [-], amplitude A [m] (``GaitConfig.lateral_gain`` x v_y, clipped).
+    """
+    if df_swing <= 0.0:
+        return 0.0
+    if phi < df_swing:
+        return amplitude * (2.0 * phi / df_swing - 1.0)
+    return amplitude * (1.0 - 2.0 * (phi - df_swing) / (1.0 - df_swing))
+
+
+@wp.func
 def nominal_wheel_velocity(vx: float, wz: float, d: float, radius: float, forward_sign: float) -> float:
     """Eq. (3) nominal wheel velocity v_n = forward_sign (v_x - d w_z) / R [rad/s].
 
@@ -214,6 +229,8 @@ def compute_nominal_gait(
     h_s: float,
     swing_x_amplitude: float,
     phase_mode: int,
+    lateral_gain: float,
+    lateral_limit: float,
     # outputs
     clock: wp.array2d(dtype=float),
     phase: wp.array2d(dtype=float),
@@ -239,7 +256,9 @@ def compute_nominal_gait(
         clock[world, leg] = phi
     psi = swing_progress(phi, df_swing[g])
     x = NOMINAL_FOOT_X[leg] + stance_x[g] + swing_x(psi, swing_x_amplitude)
-    p_n = wp.vec3(x, NOMINAL_FOOT_Y[leg], swing_height(psi, h_b, h_s))
+    amplitude = wp.clamp(lateral_gain * command[world, 1], -lateral_limit, lateral_limit)
+    y = NOMINAL_FOOT_Y[leg] + lateral_stroke(phi, df_swing[g], amplitude)
+    p_n = wp.vec3(x, y, swing_height(psi, h_b, h_s))
     q_n = foot_ik(p_n, side)
 
     phase[world, leg] = phi
@@ -371,6 +390,8 @@ def step_nominal_gait(
     h_s: float = constants.NOMINAL_SWING_HEIGHT,
     swing_x_amplitude: float = constants.MAX_HORIZONTAL_OFFSET,
     phase_mode: str = "increment",
+    lateral_gain: float = 0.0,
+    lateral_limit: float = 0.0,
 ) -> None:
     """Advance the nominal gait by one policy step (gait switch, then :func:`compute_nominal_gait`), in place.
 
@@ -387,6 +408,8 @@ def step_nominal_gait(
         h_s: swing height [m].
         swing_x_amplitude: horizontal swing amplitude [m] (authors' generator: 0.05).
         phase_mode: ``"increment"`` (residual accumulated into the clock) or ``"offset"`` (offset from the clock).
+        lateral_gain, lateral_limit: the lateral feed-forward (:func:`lateral_stroke`), A = clip(gain v_y, +-limit)
+            [s, m]; 0 = off (the paper).
     """
     if phase_mode not in PHASE_MODES:
         raise ValueError(f"unknown phase_mode {phase_mode!r}; choose one of {', '.join(PHASE_MODES)}")
@@ -416,6 +439,8 @@ def step_nominal_gait(
             float(h_s),
             float(swing_x_amplitude),
             PHASE_MODES.index(phase_mode),
+            float(lateral_gain),
+            float(lateral_limit),
         ],
         outputs=[
             state.clock,

@@ -34,6 +34,8 @@ class NominalGait:
         swing_height: float = C.NOMINAL_SWING_HEIGHT,
         swing_x_amplitude: float = C.MAX_HORIZONTAL_OFFSET,
         phase_mode: str = "increment",
+        lateral_gain: float = 0.0,
+        lateral_limit: float = 0.0,
     ):
         self.world_count = world_count
         self.device = wp.get_device(device)
@@ -50,6 +52,10 @@ class NominalGait:
             raise ValueError(f"unknown phase_mode {phase_mode!r}; choose one of {', '.join(gait_kernels.PHASE_MODES)}")
         self.phase_mode = phase_mode
         """How the phase residual enters: ``increment`` (accumulated) or ``offset`` (from the gait clock)."""
+        self.lateral_gain = float(lateral_gain)
+        """Lateral feed-forward gain: stroke amplitude per m/s of v_y command [s] (0: off, the paper)."""
+        self.lateral_limit = float(lateral_limit)
+        """|amplitude| bound of the lateral feed-forward [m]."""
         self.command = wp.zeros((world_count, 3), dtype=wp.float32, device=self.device)
         self.gait_id = wp.zeros(world_count, dtype=wp.int32, device=self.device)
         self.phase_residual = wp.zeros((world_count, 4), dtype=wp.float32, device=self.device)
@@ -83,5 +89,6 @@ class NominalGait:
         contact flags (W, 4) int32."""
         gait_kernels.step_nominal_gait(
             self.state, self.arrays, self.gait_id, self.command, self.phase_residual, leg_joint_pos, wheel_contact,
-            dt, self.body_height, self.swing_height, self.swing_x_amplitude, self.phase_mode,
+            dt, self.body_height, self.swing_height, self.swing_x_amplitude, self.phase_mode, self.lateral_gain,
+            self.lateral_limit,
         )  # fmt: skip

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import TextIO
 
 from wqwarp.eval.energy_map import EnergyMapOptions, draw_energy_map, energy_map
+from wqwarp.eval.lateral import LateralOptions, lateral
 from wqwarp.eval.options import ProtocolOptions, add_options, command_line, from_namespace
 from wqwarp.eval.timeline import TimelineOptions, draw_timeline, timeline
 from wqwarp.eval.tracking import TrackingOptions, push, sim2sim, tracking
@@ -50,6 +51,9 @@ PROTOCOLS = {p.name: p for p in (
     Protocol("timeline", timeline, TimelineOptions, "the paper's Fig. 6: robots through held --segments, gaits, "
              "power and the FR wheel height over time (train/reproduce.py: the Fig. 6 segments)",
              draw=draw_timeline, json_indent=None),
+    Protocol("lateral", lateral, LateralOptions, "pure lateral commands held (default +-0.3, +-0.6 m/s): v_y and its "
+             "ratio to the command, the yaw rate it drags along, the commanded foot-y stroke, the phase-residual "
+             "spread, falls; tracked = within 30 % with |w_z| < 0.2 rad/s and no falls; --per-gait forces each gait"),
     Protocol("energymap", energy_map, EnergyMapOptions, "per command cell of a (v_x, v_y) and a (v_x, w) grid: each "
              "gait's measured and predicted power and the cheapest gait", draw=draw_energy_map, json_indent=None),
 )}  # fmt: skip

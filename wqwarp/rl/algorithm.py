@@ -12,6 +12,7 @@ power-predictor fit, then the temperature schedule moves to the next iteration.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Literal
 
 import torch
@@ -128,8 +129,13 @@ class WqPPO(PPO):
         - Schulman et al. "Proximal policy optimization algorithms." arXiv preprint arXiv:1707.06347 (2017).
     """
 
-    def __init__(self, *args, update_threads: int | None = None, **kwargs) -> None:
+    def __init__(self, *args, update_threads: int | None = None, init_std_groups: list[float] | None = None,
+                 **kwargs) -> None:  # fmt: skip
+        """``init_std_groups``: the initial action std of each action group (``TrainConfig.init_noise_std_groups``,
+        groups of ``wqwarp.rl.observations.action_groups``), written into the actor's std parameter."""
         super().__init__(*args, **kwargs)
+        if init_std_groups:
+            self.set_group_std(init_std_groups)
         self.update_threads = update_threads
         """Torch intra-op threads during the update and the fits (None: leave torch's setting); collection keeps
         torch's setting (``wqwarp.utils.threads``: the physics threads run then)."""
@@ -139,6 +145,24 @@ class WqPPO(PPO):
         """Losses of the last fits of the extensions."""
         self.iteration = 0
         """PPO iteration the coming rollout belongs to (the temperature schedule's position)."""
+
+    def set_group_std(self, stds: list[float]) -> None:
+        """Set the actor's std per action group (one value per group, in ``action_groups`` order)."""
+        from wqwarp.rl.observations import action_groups
+
+        dist = self.actor.distribution
+        param = getattr(dist, "std_param", None)
+        log_param = getattr(dist, "log_std_param", None)
+        target = param if param is not None else log_param
+        if target is None:
+            raise ValueError("init_noise_std_groups needs a Gaussian distribution with a state-independent std")
+        groups = action_groups(target.shape[-1])
+        if len(stds) != len(groups):
+            raise ValueError(f"init_noise_std_groups: {len(stds)} values for the {len(groups)} action groups "
+                             f"({', '.join(groups)})")  # fmt: skip
+        with torch.no_grad():
+            for value, cols in zip(stds, groups.values(), strict=True):
+                target[cols] = float(value) if param is not None else math.log(float(value))
 
     @staticmethod
     def construct_algorithm(obs: TensorDict, env: WheeledGo1Env, cfg: dict, device: str) -> WqPPO:

@@ -30,6 +30,8 @@ EvaluationSelection = Literal["argmin", "sample"]
 PhaseResidualMode = Literal["offset", "increment"]
 """How the phase residual enters the gait phase (:attr:`ActionConfig.phase_residual_mode`)."""
 TEMPERATURE_SHAPES: tuple[str, ...] = typing.get_args(TemperatureShape)
+Symmetry = Literal["none", "augmentation", "mirror_loss", "both"]
+"""Use of the left-right mirror in PPO (:attr:`TrainConfig.symmetry`, rsl-rl's ``symmetry_cfg``)."""
 
 
 def _reward_weights(self, terms: tuple[RewardTerm, ...] = TABLE_II) -> list[float]:
@@ -41,7 +43,11 @@ def _reward_weights(self, terms: tuple[RewardTerm, ...] = TABLE_II) -> list[floa
 RewardConfig = dataclasses.make_dataclass(
     "RewardConfig",
     [(t.name, float, field(default=t.weight, metadata={"doc": t.doc})) for t in TABLE_II]
-    + [("tracking_sigma", float, field(default=4.0, metadata={"doc": "The 4 in exp(-4 err^2) [1/(m/s)^2]."}))],
+    + [("tracking_sigma", float, field(default=4.0, metadata={"doc": "The 4 in exp(-4 err^2) [1/(m/s)^2]."})),
+       ("only_positive", bool, field(default=False, metadata={"doc": (
+           "Clip each step's summed reward at zero (legged_gym's only_positive_rewards, on by default there): the "
+           "penalties cannot make a step worse than doing nothing rewarded. The paper does not say; off keeps the "
+           "plain sum.")}))],
     namespace={"weights": _reward_weights, "__module__": __name__},
 )
 RewardConfig.__doc__ = """Weights of the paper's Table II, one field per term of the registry ``wqwarp.rl.rewards``
@@ -68,10 +74,16 @@ class CommandConfig(CheckedConfig):
     """Probability that a sample has only one non-zero axis (the paper evaluates single-axis commands)."""
     zero_prob: float = 0.1
     """Probability of a zero command (standing still)."""
+    single_axis_weights: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    """Relative odds that a single-axis sample keeps v_x, v_y or w_z (default: equal). (1, 2, 1) makes pure lateral
+    commands a quarter of all samples at ``single_axis_prob`` 0.5 instead of a sixth."""
 
     def check(self) -> None:
         check_ranges(self, "vx_range", "vy_range", "wz_range")
         check_positive(self, "resampling_time")
+        w = self.single_axis_weights
+        require(len(w) == 3 and min(w) >= 0.0 and sum(w) > 0.0, "CommandConfig.single_axis_weights",
+                f"needs three non-negative odds with a positive sum, got {w}")  # fmt: skip
         for n in ("single_axis_prob", "zero_prob"):
             require(0.0 <= getattr(self, n) <= 1.0, f"CommandConfig.{n}", f"must be in [0, 1], got {getattr(self, n)}")
 
@@ -91,6 +103,13 @@ class GaitConfig(CheckedConfig):
     """h_s [m] (authors' generator: max_clearance 0.1 m)."""
     swing_x_amplitude: float = 0.05
     """Horizontal swing amplitude of the foot point [m] (authors' generator: max_horizontal_offset 0.05 m)."""
+    lateral_gain: float = 0.0
+    """Lateral feed-forward, NOT in the paper (0 = off, the paper's nominal gait): every stepping leg's nominal foot
+    y gets a sawtooth locked to its phase, -A -> +A over swing and back over stance, with A = clip(lateral_gain x
+    v_y command, +-lateral_limit) [s]; the stance legs push the body toward +A. The driving gait (no swing) gets
+    none. ``wqwarp.kernels.gait.lateral_stroke``."""
+    lateral_limit: float = 0.12
+    """|A| bound of the lateral feed-forward [m] (the nominal trot rolls over near 0.15 m open loop)."""
     library: tuple[Gait, ...] = TABLE_I
     """The nominal gait library, index = gait id (default: the paper's Table I, ``wqwarp.control.gaits``). It sets
     the privileged one-hot size and the predictor's outputs, and is stored in checkpoints."""
@@ -100,6 +119,7 @@ class GaitConfig(CheckedConfig):
         super().__post_init__()
 
     def check(self) -> None:
+        check_positive(self, "lateral_gain", "lateral_limit", strict=False)
         names = [g.name for g in self.library]
         require(bool(names) and len(set(names)) == len(names), "GaitConfig.library",
                 f"needs at least one gait and unique names, got {names}")  # fmt: skip
@@ -307,6 +327,17 @@ class TrainConfig(CheckedConfig):
     actor_hidden_dims: tuple[int, ...] = (256, 128, 64)
     critic_hidden_dims: tuple[int, ...] = (256, 128, 64)
     init_noise_std: float = 0.5
+    """Initial action standard deviation of the Gaussian policy (legged_gym: 1.0)."""
+    init_noise_std_groups: tuple[float, ...] = ()
+    """Per-group initial std overriding ``init_noise_std`` (empty: one std for all): (phase, foot, wheel) for the 20
+    residual actions, (joints, wheels) for the baseline's 16; ``wqwarp.rl.algorithm.action_groups``."""
+    symmetry: Symmetry = "none"
+    """Left-right symmetry through rsl-rl's ``symmetry_cfg`` (``wqwarp.rl.observations.data_augmentation``, the
+    mirror derived from the observation and action registries): ``augmentation`` adds every minibatch's mirror to
+    PPO's losses, ``mirror_loss`` adds ``mirror_loss_coeff`` x ||pi(mirror o) - mirror pi(o)||^2, ``both`` does both,
+    ``none`` neither."""
+    mirror_loss_coeff: float = 1.0
+    """Weight of the mirror loss (``symmetry`` ``mirror_loss`` or ``both``)."""
     learning_rate: float = 1e-3
     num_learning_epochs: int = 5
     num_mini_batches: int = 4
@@ -319,6 +350,19 @@ class TrainConfig(CheckedConfig):
     def check(self) -> None:
         check_positive(self, "num_steps_per_env", "max_iterations", "save_interval", "num_learning_epochs",
                        "num_mini_batches", "learning_rate", "init_noise_std")  # fmt: skip
+        check_positive(self, "mirror_loss_coeff", strict=False)
+        g = self.init_noise_std_groups
+        require(len(g) in (0, 2, 3) and all(x > 0 for x in g), "TrainConfig.init_noise_std_groups",
+                f"needs 3 positive values (phase, foot, wheel) or 2 (joints, wheels), got {g}")  # fmt: skip
+
+    def symmetry_cfg(self) -> dict | None:
+        """rsl-rl's ``symmetry_cfg`` for :attr:`symmetry` (None when off)."""
+        if self.symmetry == "none":
+            return None
+        return {"use_data_augmentation": self.symmetry in ("augmentation", "both"),
+                "use_mirror_loss": self.symmetry in ("mirror_loss", "both"),
+                "mirror_loss_coeff": self.mirror_loss_coeff,
+                "data_augmentation_func": "wqwarp.rl.observations:data_augmentation"}  # fmt: skip
 
     def rsl_rl_dict(self) -> dict:
         """The runner configuration rsl-rl 5.5.1 expects (asymmetric critic through ``obs_groups``)."""
@@ -335,7 +379,9 @@ class TrainConfig(CheckedConfig):
                           "num_learning_epochs": self.num_learning_epochs, "num_mini_batches": self.num_mini_batches,
                           "clip_param": self.clip_param, "gamma": self.gamma, "lam": self.lam,
                           "entropy_coef": self.entropy_coef, "desired_kl": self.desired_kl, "schedule": "adaptive",
-                          "value_loss_coef": 1.0, "max_grad_norm": 1.0, "use_clipped_value_loss": True},
+                          "value_loss_coef": 1.0, "max_grad_norm": 1.0, "use_clipped_value_loss": True,
+                          "symmetry_cfg": self.symmetry_cfg(),
+                          "init_std_groups": list(self.init_noise_std_groups) or None},
             "logger": "tensorboard",
             "check_for_nan": True,
         }  # fmt: skip
@@ -382,6 +428,10 @@ MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("sim.unstable_position_limit", 1.0e3, "the divergence guard's default; before it, a diverged robot went unseen"),
     ("sim.unstable_velocity_limit", 1.0e3, "the divergence guard's default; before it, a diverged robot went unseen"),
     ("gait.library", [dataclasses.asdict(g) for g in TABLE_I], "Table I, the only library before it was a setting"),
+    ("reward.only_positive", False, "the plain sum, the only reward before the setting existed"),
+    ("commands.single_axis_weights", [1.0, 1.0, 1.0], "equal odds, the only sampler before the setting existed"),
+    ("gait.lateral_gain", 0.0, "no lateral feed-forward before the setting existed"),
+    ("gait.lateral_limit", 0.12, "its default (unused at gain 0)"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
 checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""

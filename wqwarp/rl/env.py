@@ -70,7 +70,9 @@ class WheeledGo1Env(VecEnv):
             self.nominal = NominalGait(n, sim.device, library=cfg.gait.library, body_height=cfg.gait.body_height,
                                        swing_height=cfg.gait.swing_height,
                                        swing_x_amplitude=cfg.gait.swing_x_amplitude,
-                                       phase_mode=cfg.action.phase_residual_mode)  # fmt: skip
+                                       phase_mode=cfg.action.phase_residual_mode,
+                                       lateral_gain=cfg.gait.lateral_gain,
+                                       lateral_limit=cfg.gait.lateral_limit)  # fmt: skip
             wp.to_torch(self.nominal.gait_id)[:] = start_gait
             self.nominal.reset(np.arange(n))
 
@@ -138,6 +140,8 @@ class WheeledGo1Env(VecEnv):
         """(perm, signs) of the left-right mirror of o_t (``wqwarp.rl.observations``)."""
         self.privileged_mirror = obs_terms.mirror_matrix(PRIVILEGED_TERMS, dims, dev)
         self.action_mirror = obs_terms.mirror_tensors(obs_terms.action_mirror(self.num_actions), dev)
+        self.action_groups = obs_terms.action_groups(self.num_actions)
+        """Columns of each action group (phase, foot, wheel; joint, wheel for the baseline)."""
         H = cfg.obs.history_length
         self.history = torch.zeros(n, H, self.proprio_dim, device=dev)
         self.estimator = StateEstimator(H * self.proprio_dim, tuple(cfg.estimator.hidden_dims)).to(dev)
@@ -218,6 +222,8 @@ class WheeledGo1Env(VecEnv):
         self.episode_length_buf += 1
         self.common_step_counter += 1
         rewards = self._compute_rewards()
+        if cfg.reward.only_positive:
+            rewards.clamp_(min=0.0)
         # A robot whose simulation diverged (sim.unstable) is terminated and reset; nothing it produced in this step
         # (reward, power, metrics, episode sums) reaches the learners or the logs.
         unstable = self.tv["unstable"] > 0
@@ -308,6 +314,9 @@ class WheeledGo1Env(VecEnv):
         for k in ("p_cost", "p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs",
                   "p_joule_wheels"):  # fmt: skip
             out[f"Metrics/{k}"] = mean(self.tv[k])
+        mag = self.actions.abs()
+        for name, cols in self.action_groups.items():  # mean |a| per action group, raw (before scales)
+            out[f"Actions/{name}_abs"] = mean(mag[:, cols].mean(1))
         return out
 
     def _episode_log(self, ids: torch.Tensor, unstable: torch.Tensor) -> dict:

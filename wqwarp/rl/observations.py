@@ -83,6 +83,17 @@ def action_mirror(num_actions: int) -> Mirror:
     raise ValueError(f"no mirror for {num_actions} actions (20 residual or 16 baseline)")
 
 
+def action_groups(num_actions: int) -> dict[str, slice]:
+    """Columns of each action group: ``phase`` dphi (4), ``foot`` dp (12), ``wheel`` dv (4) for the 20 residual
+    actions; ``joint`` (12), ``wheel`` (4) for the baseline's 16 (the order of
+    ``TrainConfig.init_noise_std_groups``)."""
+    if num_actions == 20:
+        return {"phase": slice(0, 4), "foot": slice(4, 16), "wheel": slice(16, 20)}
+    if num_actions == 16:
+        return {"joint": slice(0, 12), "wheel": slice(12, 16)}
+    raise ValueError(f"no action groups for {num_actions} actions (20 residual or 16 baseline)")
+
+
 @dataclass(frozen=True)
 class Dims:
     """What term sizes depend on."""

@@ -41,6 +41,18 @@ def extras_means(ep_extras: list[dict]) -> dict[str, float]:
     return out
 
 
+def group_std(action_std: torch.Tensor) -> dict[str, float]:
+    """``Policy/std_<group>``: the policy's mean action std per action group (``observations.action_groups``)."""
+    from wqwarp.rl.observations import action_groups
+
+    std = action_std.detach().reshape(-1, action_std.shape[-1]).mean(0)  # (A,) or per sample (..., A)
+    try:
+        groups = action_groups(std.numel())
+    except ValueError:
+        return {}
+    return {f"Policy/std_{name}": std[cols].mean().item() for name, cols in groups.items()}
+
+
 def read_metrics(log_dir: str) -> list[dict]:
     """The lines of ``<log_dir>/metrics.jsonl`` in order (a line cut short by a crash is skipped); [] if none."""
     path = os.path.join(log_dir, METRICS_FILE)
@@ -111,6 +123,9 @@ class ProgressLogger(Logger):
         with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
             super().log(it, start_it, total_it, collect_time, learn_time, loss_dict, learning_rate, action_std,
                         rnd_weight, print_minimal, width, pad)  # fmt: skip
+        if self.writer is not None:
+            for key, value in group_std(action_std).items():
+                self.writer.add_scalar(key, value, it)
         if self.writer is not None and self.console == "line":
             done = it + 1 - start_it
             eta = (time.time() - self._t0) / max(done, 1) * (total_it - it - 1)
@@ -134,6 +149,7 @@ class ProgressLogger(Logger):
             "learning_rate": learning_rate,
             "action_std": action_std.mean().item(),
         }
+        row.update(group_std(action_std))
         self._t_last = now
         row.update(extras_means(self.ep_extras))
         row.update({f"Loss/{k}": float(v) for k, v in loss_dict.items()})

@@ -210,12 +210,19 @@ class Simulator(SimBuffers):
         self._post_step()
 
     def set_state(self, env_ids, joint_q, joint_qd) -> None:
-        """Overwrite the coordinates of robots ``env_ids`` ((k, 23) / (k, 22)) mid-episode (e.g. a push), keeping
-        controller state. Accepts Warp arrays or torch tensors on the device (no host copy) or NumPy arrays."""
+        """Overwrite the coordinates of robots ``env_ids`` ((k, 23) / (k, 22)) mid-episode, keeping controller state
+        and the last step's contact summaries; their body poses, the project-order joint arrays (``actuated_q``,
+        ``actuated_qd``) and the base frame follow the new coordinates. Accepts Warp arrays or torch tensors on the
+        device (no host copy) or NumPy arrays."""
+        import newton
+
         ids = self._ids(env_ids)
         if ids.shape[0] == 0:
             return
         self._write_rows(ids, joint_q, joint_qd)
+        newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state, indices=ids)
+        wp.launch(gather_actuated, dim=(self.num_envs, 16), inputs=[self.joint_q, self.joint_qd, self.coord_index,
+                  self.dof_index], outputs=[self.actuated_q, self.actuated_qd], device=self.device)  # fmt: skip
         self._update_base_frame()
 
     def _write_rows(self, ids: wp.array, joint_q, joint_qd) -> None:

@@ -1,0 +1,128 @@
+"""The omnidirectional-skill levers (issue 21), each against hand values or its definition: the lateral
+feed-forward's sawtooth (kernel and nominal gait), the command sampler's axis odds, the per-group initial std, the
+clip of the step reward at zero and the per-group action logs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+import warp as wp
+
+from wqwarp.control.gaits import GAIT_LIBRARY, gait_index
+from wqwarp.control.nominal import NominalGait
+from wqwarp.kernels import gait
+from wqwarp.rl.commands import sample_commands
+from wqwarp.rl.config import CommandConfig, TrainConfig
+
+
+@wp.kernel
+def _stroke(phi: wp.array(dtype=float), df: wp.array(dtype=float), a: wp.array(dtype=float),
+            out: wp.array(dtype=float)):  # fmt: skip
+    i = wp.tid()
+    out[i] = gait.lateral_stroke(phi[i], df[i], a[i])
+
+
+def _stroke_np(phi, df, a):
+    """The sawtooth: -A -> +A over swing (phi < DF), +A -> -A over stance; 0 without swing."""
+    phi, df, a = np.broadcast_arrays(*(np.asarray(x, np.float64) for x in (phi, df, a)))
+    swing = a * (2 * phi / np.where(df > 0, df, 1) - 1)
+    stance = a * (1 - 2 * (phi - df) / np.where(df < 1, 1 - df, 1))
+    return np.where(df <= 0, 0.0, np.where(phi < df, swing, stance))
+
+
+def test_lateral_stroke_against_numpy_and_hand_values(device):
+    phi = np.array([0.0, 0.2, 0.4 - 1e-6, 0.4, 0.7, 1.0 - 1e-6, 0.3, 0.1], np.float32)
+    df = np.array([0.4, 0.4, 0.4, 0.4, 0.4, 0.4, 0.0, 0.4], np.float32)
+    a = np.array([0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, -0.05], np.float32)
+    out = wp.zeros(len(phi), dtype=float, device=device)
+    wp.launch(_stroke, dim=len(phi), inputs=[wp.array(phi, device=device), wp.array(df, device=device),
+              wp.array(a, device=device)], outputs=[out], device=device)  # fmt: skip
+    got = out.numpy()
+    np.testing.assert_allclose(got, _stroke_np(phi, df, a), atol=1e-6)
+    # lift-off at -A, mid-swing 0, touch-down +A (continuous into stance), mid-stance 0, back to -A at the wrap
+    np.testing.assert_allclose(got[:6], [-0.1, 0.0, 0.1, 0.1, 0.0, -0.1], atol=1e-5)
+    assert got[6] == 0.0  # driving: no swing, no stroke
+    assert got[7] == pytest.approx(0.05 * 0.5)  # A < 0 mirrors the stroke
+
+
+def test_the_nominal_gait_carries_the_clipped_stroke_on_stepping_legs():
+    """With gain 0.35 s and v_y 0.6 m/s the amplitude is clipped to 0.12 m: over one trot cycle each leg's nominal
+    foot y spans 2 A around its stance y; the driving gait's feet do not move sideways; gain 0 is the paper's gait."""
+    spans = {}
+    for name, gain in (("trotting", 0.35), ("trotting", 0.0), ("driving", 0.35)):
+        ng = NominalGait(1, "cpu", lateral_gain=gain, lateral_limit=0.12, phase_mode="offset")
+        ng.command.assign(np.array([[0.0, 0.6, 0.0]], np.float32))
+        ng.gait_id.assign(np.array([gait_index(name, GAIT_LIBRARY)], np.int32))
+        ng.reset([0])
+        q = wp.zeros((1, 12), dtype=float)
+        contact = wp.array(np.ones((1, 4), np.int32), dtype=wp.int32)
+        ys = []
+        f = GAIT_LIBRARY[gait_index("trotting", GAIT_LIBRARY)].frequency
+        for _ in range(int(round(1.0 / f / 0.02)) + 1):
+            ng.step(q, contact, 0.02)
+            ys.append(ng.foot_target.numpy()[0, :, 1].copy())
+        ys = np.array(ys)
+        spans[(name, gain)] = ys.max(0) - ys.min(0)
+    np.testing.assert_allclose(spans[("trotting", 0.35)], 0.24, atol=0.02)
+    np.testing.assert_allclose(spans[("trotting", 0.0)], 0.0, atol=1e-6)
+    np.testing.assert_allclose(spans[("driving", 0.35)], 0.0, atol=1e-6)
+
+
+def test_single_axis_odds():
+    gen = torch.Generator().manual_seed(0)
+    cfg = CommandConfig(single_axis_prob=1.0, zero_prob=0.0, single_axis_weights=(0.0, 1.0, 0.0))
+    c = sample_commands(cfg, 2000, gen, "cpu")
+    assert (c[:, [0, 2]] == 0).all() and (c[:, 1] != 0).all()  # only lateral commands
+    cfg = CommandConfig(single_axis_prob=1.0, zero_prob=0.0, single_axis_weights=(1.0, 2.0, 1.0))
+    axis = (sample_commands(cfg, 20000, gen, "cpu") != 0).float().mean(0)
+    np.testing.assert_allclose(axis.numpy(), [0.25, 0.5, 0.25], atol=0.02)
+    assert sample_commands(cfg, 0, gen, "cpu").shape == (0, 3)
+    with pytest.raises(ValueError, match="single_axis_weights"):
+        CommandConfig(single_axis_weights=(0.0, 0.0, 0.0))
+
+
+def test_default_odds_draw_the_same_commands_as_before():
+    """Equal odds keep the old draw (``torch.randint``), so the default sampler's stream is unchanged."""
+    cfg = CommandConfig()
+    a = sample_commands(cfg, 64, torch.Generator().manual_seed(3), "cpu")
+    gen = torch.Generator().manual_seed(3)
+    lo, hi = torch.tensor([r[0] for r in (cfg.vx_range, cfg.vy_range, cfg.wz_range)]), torch.tensor(
+        [r[1] for r in (cfg.vx_range, cfg.vy_range, cfg.wz_range)])  # fmt: skip
+    raw = torch.stack([lo[i] + (hi[i] - lo[i]) * torch.rand(64, generator=gen) for i in range(3)], 1)
+    u = torch.rand(64, generator=gen)
+    axis = torch.randint(0, 3, (64,), generator=gen)
+    single = u < cfg.single_axis_prob
+    b = torch.where(single[:, None], raw * torch.nn.functional.one_hot(axis, 3).float(), raw)
+    b[(u >= cfg.single_axis_prob) & (u < cfg.single_axis_prob + cfg.zero_prob)] = 0.0
+    torch.testing.assert_close(a, b)
+
+
+def test_per_group_std_and_action_logs():
+    """The per-group initial std lands in the actor's std parameter; one training iteration logs the std and the
+    mean |a| of every group; the clip at zero keeps every step reward non-negative."""
+    import contextlib
+    import io
+
+    from wqwarp.rl.env import WheeledGo1Env
+    from wqwarp.rl.presets import make_preset
+    from wqwarp.rl.runner import WqRunner
+
+    cfg = make_preset("no_predictor")
+    cfg.sim.num_envs = 4
+    cfg.reward.only_positive = True
+    env = WheeledGo1Env(cfg)
+    train = TrainConfig(num_steps_per_env=4, init_noise_std_groups=(1.0, 0.3, 0.6), symmetry="augmentation")
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner = WqRunner(env, train.rsl_rl_dict(), log_dir=None, device="cpu")
+    std = runner.alg.actor.distribution.std_param.detach()
+    torch.testing.assert_close(std, torch.tensor([1.0] * 4 + [0.3] * 12 + [0.6] * 4))
+    obs = env.get_observations()
+    for _ in range(5):
+        obs, rew, _, extras = env.step(runner.alg.act(obs))
+        assert (rew >= 0).all()
+    assert {"Actions/phase_abs", "Actions/foot_abs", "Actions/wheel_abs"} <= set(extras["log"])
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner.learn(1)
+    with pytest.raises(ValueError, match="action groups"):
+        runner.alg.set_group_std([1.0, 2.0])

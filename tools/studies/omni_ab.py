@@ -1,0 +1,123 @@
+"""The omnidirectional-skill A/B table (issue 21): training curves and held-command evaluations of runs side by side.
+
+Usage::
+
+    python tools/studies/omni_ab.py RUN_DIR [RUN_DIR ...] [--eval-json NAME] [--lateral-json NAME] [--json PATH]
+
+Per run: the levers that differ from the defaults (from its ``config.json``), samples and wall minutes until the
+20-iteration mean of each training error first stays below 0.2 / 0.15 / 0.1 (``tools/time_to_skill.py``'s rule),
+the last 50 iterations' mean errors, power and per-group policy std, and, where the run folder holds them, the MSE
+per axis of ``train/evaluate.py --json RUN_DIR/<eval-json>`` and the pure-lateral probe of ``--protocol lateral
+--json RUN_DIR/<lateral-json>``. Training errors are under each run's own command sampler: compare them only
+between runs with the same sampler; the evaluation holds the paper's commands for every run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+
+from wqwarp.cli.args import doc_parser
+from wqwarp.cli.time_to_skill import first_below
+
+THRESHOLDS = (0.2, 0.15, 0.1)
+LEVER_FIELDS = {
+    "symmetry": ("train", "symmetry"), "init_std": ("train", "init_noise_std"),
+    "std_groups": ("train", "init_noise_std_groups"), "entropy": ("train", "entropy_coef"),
+    "phase_clip": ("env", "action", "phase_clip"), "clip_actions": ("env", "action", "clip_actions"),
+    "axis_odds": ("env", "commands", "single_axis_weights"), "only_positive": ("env", "reward", "only_positive"),
+    "lateral_gain": ("env", "gait", "lateral_gain"), "epochs": ("train", "num_learning_epochs"),
+}  # fmt: skip
+
+
+def _get(cfg: dict, path: tuple[str, ...]):
+    for p in path:
+        if not isinstance(cfg, dict) or p not in cfg:
+            return None
+        cfg = cfg[p]
+    return cfg
+
+
+def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50) -> dict:
+    from wqwarp.rl.progress import read_metrics
+
+    with open(os.path.join(run, "config.json"), encoding="utf-8") as f:
+        cfg = json.load(f)
+    rows = read_metrics(run)
+    if not rows:
+        raise ValueError(f"{run}: no metrics.jsonl rows")
+    robots = int(cfg["args"]["num_envs"]) * int(cfg.get("world_size", 1))
+    per_it = robots * int(cfg["args"]["num_steps_per_env"])
+    out = {"run": run, "preset": cfg["args"].get("preset"), "iterations": len(rows), "samples": len(rows) * per_it,
+           "levers": {k: _get(cfg, p) for k, p in LEVER_FIELDS.items()}, "to_threshold": {}, "final": {}}  # fmt: skip
+    wall = [float(r.get("collect_s") or 0) + float(r.get("learn_s") or 0) for r in rows]
+    for axis in ("vx", "vy", "wz"):
+        vals = [float(r.get(f"Metrics/{axis}_error") or 0.0) for r in rows]
+        out["final"][f"{axis}_error"] = sum(vals[-tail:]) / min(tail, len(vals))
+        cells = {}
+        for th in THRESHOLDS:
+            i = first_below(vals, th, 20)
+            cells[str(th)] = None if i is None else {"iteration": i + 1, "samples": (i + 1) * per_it,
+                                                     "wall_min": round(sum(wall[: i + 1]) / 60, 1)}  # fmt: skip
+        out["to_threshold"][axis] = cells
+    for key in ("Metrics/p_cost", "Policy/std_phase", "Policy/std_foot", "Policy/std_wheel", "Actions/foot_abs",
+                "Actions/phase_abs", "mean_reward"):  # fmt: skip
+        vals = [float(r[key]) for r in rows[-tail:] if r.get(key) is not None]
+        if vals:
+            out["final"][key] = sum(vals) / len(vals)
+    out["wall_min"] = round(sum(wall) / 60, 1)
+    out["learn_s_per_iteration"] = sum(float(r.get("learn_s") or 0) for r in rows) / len(rows)
+    for name, key in ((eval_json, "evaluation"), (lateral_json, "lateral")):
+        path = os.path.join(run, name)
+        if os.path.isfile(path):
+            with open(path, encoding="utf-8") as f:
+                res = json.load(f)
+            if key == "evaluation":
+                out[key] = {r["task"]: {"mse": r.get("mse"), "upright": r.get("upright"),
+                                        "p_cost_w": r.get("mean_p_cost"), "gait_usage": r.get("gait_usage")}
+                            for r in res["results"]}  # fmt: skip
+            else:
+                out[key] = [{k: r[k] for k in ("command_vy", "vy", "wz", "upright", "tracked")}
+                            for r in res["runs"]["selected"]]  # fmt: skip
+    return out
+
+
+def main(argv=None) -> int:
+    ap = doc_parser(__doc__)
+    ap.add_argument("runs", nargs="+", help="run directories written by train/ppo_newton.py")
+    ap.add_argument("--eval-json", default="eval.json", help="tracking result inside each run (default eval.json)")
+    ap.add_argument("--lateral-json", default="lateral.json", help="lateral probe inside each run (default "
+                    "lateral.json)")  # fmt: skip
+    ap.add_argument("--json", default=None, help="also write the table to this JSON file")
+    args = ap.parse_args(argv)
+    ap.check_outputs(args.json)
+    try:
+        results = [summarise(r, args.eval_json, args.lateral_json) for r in args.runs]
+    except (OSError, ValueError, KeyError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    for r in results:
+        lev = ", ".join(f"{k}={v}" for k, v in r["levers"].items())
+        name = os.path.basename(r["run"].rstrip("/"))
+        print(f"{name}: {r['samples'] / 1e6:.1f} M samples, {r['wall_min']} min; {lev}")
+        for axis, cells in r["to_threshold"].items():
+            txt = "  ".join(f"<{t}: " + ("never" if c is None else f"{c['samples'] / 1e6:.2f} M") for t, c in
+                            cells.items())  # fmt: skip
+            print(f"   train {axis}: final {r['final'][f'{axis}_error']:.3f}   {txt}")
+        if "evaluation" in r:
+            print("   eval MSE: " + "  ".join(f"{t} {v['mse']:.4f} (up {v['upright']:.2f})"
+                                             for t, v in r["evaluation"].items()))  # fmt: skip
+        if "lateral" in r:
+            print("   lateral: " + "  ".join(f"{x['command_vy']:+.1f}->{x['vy']:+.2f} (wz {x['wz']:+.2f})"
+                                            for x in r["lateral"]))  # fmt: skip
+    if args.json:
+        from wqwarp.utils.provenance import write_result_json
+
+        command = " ".join(["tools/studies/omni_ab.py", *sys.argv[1:]])
+        write_result_json(args.json, {"results": results}, command=command)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
