@@ -4,6 +4,7 @@ protocol registry (options, command lines, an env left as found)."""
 from __future__ import annotations
 
 import dataclasses
+import io
 import shlex
 
 import numpy as np
@@ -169,7 +170,7 @@ def test_protocols_run_back_to_back_on_one_env_give_what_a_fresh_env_gives(tmp_p
     assert second(used) == second(make_policy_runner(path, None, num_envs=3, seed=2))
 
 
-@pytest.mark.parametrize("name", ["tracking", "push", "sim2sim", "timeline", "energymap"])
+@pytest.mark.parametrize("name", ["tracking", "push", "sim2sim", "timeline", "energymap", "lateral"])
 def test_each_protocol_records_a_command_line_that_gives_back_its_options(name):
     from wqwarp.eval.options import from_namespace
     from wqwarp.eval.protocols import PROTOCOLS, build_parser, equivalent_command, make_options
@@ -191,6 +192,7 @@ def test_protocol_options_are_checked_before_any_work(tmp_path):
                              ("sim2sim", {"physics": "bullet"}, "--physics"),
                              ("timeline", {"segments": "0.5,0:1"}, "bad segment"),
                              ("energymap", {"grid": 1}, "--grid"),
+                             ("lateral", {"commands": "left"}, "--commands"),
                              ("tracking", {"json": str(tmp_path / "no" / "r.json")}, "does not exist")):  # fmt: skip
         with pytest.raises(ValueError, match=match):
             run_protocol(name, make_options(name, checkpoint=str(tmp_path / "never_read.pt"), **bad))
@@ -270,3 +272,25 @@ def test_protocols_name_the_gaits_of_the_checkpoints_library(tmp_path, save_chec
                                                   png=str(png)), log)  # fmt: skip
     cell = emap["cells"][0]
     assert list(cell["measured_p_cost"]) == list(cell["predicted_p_cost"]) == names and png.stat().st_size > 0
+
+
+def test_the_lateral_probe_reports_per_command_and_per_gait(tmp_path, save_checkpoint):
+    """Rows per held v_y command with the achieved v_y, w_z, the commanded foot-y stroke and the phase-residual
+    spread; --per-gait on a predictive checkpoint runs every gait forced, and each forced run ran only that gait."""
+    from wqwarp.eval.protocols import make_options, run_protocol
+
+    cfg = make_preset("ours")
+    cfg.sim.num_envs = 1
+    torch.manual_seed(0)
+    save_checkpoint(tmp_path / "model_0.pt", cfg)
+    opts = make_options("lateral", checkpoint=str(tmp_path / "model_0.pt"), commands="-0.3,0.3",
+                        robots_per_command=2, seconds=2.5, per_gait=True, json=str(tmp_path / "lat.json"))
+    r = run_protocol("lateral", opts, log=io.StringIO())
+    assert set(r["runs"]) == {"selected", "driving", "trotting", "walking"}
+    for gait in ("driving", "trotting", "walking"):
+        rows = r["runs"][gait]
+        assert [x["command_vy"] for x in rows] == [-0.3, 0.3]
+        assert all(x["gait_usage"][gait] == pytest.approx(1.0) for x in rows)
+        assert all(x["foot_y_stroke_m"] >= 0 and "std" in x["phase_residual"] for x in rows)
+    assert not r["all_tracked"]  # an untrained policy does not step sideways
+    assert (tmp_path / "lat.json").is_file()

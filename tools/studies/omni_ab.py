@@ -39,12 +39,12 @@ def _get(cfg: dict, path: tuple[str, ...]):
     return cfg
 
 
-def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50) -> dict:
+def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50, upto: int | None = None) -> dict:
     from wqwarp.rl.progress import read_metrics
 
     with open(os.path.join(run, "config.json"), encoding="utf-8") as f:
         cfg = json.load(f)
-    rows = read_metrics(run)
+    rows = read_metrics(run)[:upto]
     if not rows:
         raise ValueError(f"{run}: no metrics.jsonl rows")
     robots = int(cfg["args"]["num_envs"]) * int(cfg.get("world_size", 1))
@@ -83,20 +83,44 @@ def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50) -> di
     return out
 
 
+def archive(run: str, dest: str, every: int = 10) -> None:
+    """The committed record of a run: its configuration, its evaluation results (``eval*.json``, ``lateral*.json``)
+    and every ``every``-th row of ``metrics.jsonl`` (and the last)."""
+    import shutil
+
+    from wqwarp.rl.progress import read_metrics
+
+    os.makedirs(dest, exist_ok=True)
+    for name in sorted(os.listdir(run)):
+        if name == "config.json" or (name.endswith(".json") and name.startswith(("eval", "lateral"))):
+            shutil.copyfile(os.path.join(run, name), os.path.join(dest, name))
+    rows = read_metrics(run)
+    keep = [r for i, r in enumerate(rows) if (i + 1) % every == 0 or i + 1 == len(rows)]
+    with open(os.path.join(dest, f"metrics_every{every}.jsonl"), "w", encoding="utf-8") as f:
+        f.writelines(json.dumps(r) + "\n" for r in keep)
+
+
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("runs", nargs="+", help="run directories written by train/ppo_newton.py")
     ap.add_argument("--eval-json", default="eval.json", help="tracking result inside each run (default eval.json)")
     ap.add_argument("--lateral-json", default="lateral.json", help="lateral probe inside each run (default "
                     "lateral.json)")  # fmt: skip
+    ap.add_argument("--upto", type=int, default=None, help="use the first UPTO iterations of each run (equal "
+                    "samples; default all)")
     ap.add_argument("--json", default=None, help="also write the table to this JSON file")
+    ap.add_argument("--archive", default=None, help="copy each run's config.json, evaluation JSONs and every 10th "
+                    "row of metrics.jsonl into ARCHIVE/<run name>/ (what is committed; checkpoints never are)")
     args = ap.parse_args(argv)
     ap.check_outputs(args.json)
     try:
-        results = [summarise(r, args.eval_json, args.lateral_json) for r in args.runs]
+        results = [summarise(r, args.eval_json, args.lateral_json, upto=args.upto) for r in args.runs]
     except (OSError, ValueError, KeyError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    if args.archive:
+        for run in args.runs:
+            archive(run, os.path.join(args.archive, os.path.basename(run.rstrip("/"))))
     for r in results:
         lev = ", ".join(f"{k}={v}" for k, v in r["levers"].items())
         name = os.path.basename(r["run"].rstrip("/"))
