@@ -39,6 +39,25 @@ def _get(cfg: dict, path: tuple[str, ...]):
     return cfg
 
 
+def evaluation_curve(run: str, per_it: int) -> list[dict]:
+    """MSE per task, upright share and power of every ``eval_<iterations>it.json`` in the run folder, by samples."""
+    import re
+
+    curve = []
+    for name in os.listdir(run):
+        m = re.fullmatch(r"eval_(\d+)it\.json", name)
+        if not m:
+            continue
+        with open(os.path.join(run, name), encoding="utf-8") as f:
+            res = json.load(f)
+        it = int(m.group(1))
+        curve.append({"iterations": it, "samples": it * per_it, "file": name,
+                      "mse": {r["task"]: r["mse"] for r in res["results"]},
+                      "upright": {r["task"]: r["upright"] for r in res["results"]},
+                      "p_cost_w": {r["task"]: r["mean_p_cost"] for r in res["results"]}})  # fmt: skip
+    return sorted(curve, key=lambda c: c["iterations"])
+
+
 def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50, upto: int | None = None) -> dict:
     from wqwarp.rl.progress import read_metrics
 
@@ -67,6 +86,7 @@ def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50, upto:
         if vals:
             out["final"][key] = sum(vals) / len(vals)
     out["wall_min"] = round(sum(wall) / 60, 1)
+    out["evaluation_curve"] = evaluation_curve(run, per_it)
     out["learn_s_per_iteration"] = sum(float(r.get("learn_s") or 0) for r in rows) / len(rows)
     for name, key in ((eval_json, "evaluation"), (lateral_json, "lateral")):
         path = os.path.join(run, name)
@@ -132,6 +152,9 @@ def main(argv=None) -> int:
         if "evaluation" in r:
             print("   eval MSE: " + "  ".join(f"{t} {v['mse']:.4f} (up {v['upright']:.2f})"
                                              for t, v in r["evaluation"].items()))  # fmt: skip
+        for c in r["evaluation_curve"]:
+            print(f"   eval at {c['samples'] / 1e6:.1f} M: " + "  ".join(f"{t} {v:.4f}" for t, v in c["mse"].items())
+                  + "   upright " + " ".join(f"{v:.2f}" for v in c["upright"].values()))  # fmt: skip
         if "lateral" in r:
             print("   lateral: " + "  ".join(f"{x['command_vy']:+.1f}->{x['vy']:+.2f} (wz {x['wz']:+.2f})"
                                             for x in r["lateral"]))  # fmt: skip
