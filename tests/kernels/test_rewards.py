@@ -60,7 +60,7 @@ def _launch(device, terms, x, weights, times: int = 1):
 def test_registry_derives_the_config_fields_and_every_term_has_a_formula_and_a_reference():
     assert REWARD_TERMS == tuple(t.name for t in TABLE_II) and len(REWARD_TERMS) == 12
     fields = {f.name: f for f in dataclasses.fields(RewardConfig)}
-    assert list(fields) == [*REWARD_TERMS, "tracking_sigma"]
+    assert list(fields) == [*REWARD_TERMS, "tracking_sigma", "only_positive"]
     for t in TABLE_II:
         assert fields[t.name].default == t.weight and fields[t.name].metadata["doc"] == t.doc
         assert t.reference is not None and t.doc
