@@ -53,8 +53,8 @@ def _mirror_state(env: WheeledGo1Env, q: torch.Tensor, qd: torch.Tensor) -> tupl
     lay = env.sim.layout
     coord = np.asarray(lay.actuated_coord)
     dof = np.asarray(lay.actuated_dof)
-    leg_perm = np.array([3 * SWAP[leg] + j for leg in range(4) for j in range(3)] + [12 + SWAP[w] for w in range(4)])
-    joint_sign = torch.tensor([-1.0, 1.0, 1.0] * 4 + [1.0] * 4)
+    perm, signs = ob.concat(ob.LEG_JOINTS, ob.WHEELS)  # the 16 joints in project order, from the registry
+    leg_perm, joint_sign = np.asarray(perm), torch.tensor(signs)
     mq, mqd = q.clone(), qd.clone()
     mq[1] = -q[1]
     mq[3], mq[5] = -q[3], -q[5]  # quaternion x, z

@@ -46,11 +46,7 @@ def group_std(action_std: torch.Tensor) -> dict[str, float]:
     from wqwarp.rl.observations import action_groups
 
     std = action_std.detach().reshape(-1, action_std.shape[-1]).mean(0)  # (A,) or per sample (..., A)
-    try:
-        groups = action_groups(std.numel())
-    except ValueError:
-        return {}
-    return {f"Policy/std_{name}": std[cols].mean().item() for name, cols in groups.items()}
+    return {f"Policy/std_{name}": std[cols].mean().item() for name, cols in action_groups(std.numel()).items()}
 
 
 def read_metrics(log_dir: str) -> list[dict]:
@@ -123,9 +119,10 @@ class ProgressLogger(Logger):
         with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
             super().log(it, start_it, total_it, collect_time, learn_time, loss_dict, learning_rate, action_std,
                         rnd_weight, print_minimal, width, pad)  # fmt: skip
-        if self.writer is not None:
-            for key, value in group_std(action_std).items():
-                self.writer.add_scalar(key, value, it)
+        if self.writer is not None:  # rsl-rl logs the mean std; the row holds it per action group
+            for key, value in self.metrics.items():
+                if key.startswith("Policy/std_"):
+                    self.writer.add_scalar(key, value, it)
         if self.writer is not None and self.console == "line":
             done = it + 1 - start_it
             eta = (time.time() - self._t0) / max(done, 1) * (total_it - it - 1)

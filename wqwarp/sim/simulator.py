@@ -159,6 +159,10 @@ class Simulator(SimBuffers):
         """Per policy step: contact flags, the project-order joint arrays and the base frame."""
         wp.launch(_wheel_contact_flags, dim=(self.num_envs, 4), inputs=[self.wheel_force, self.cfg.contact_threshold],
                   outputs=[self.wheel_contact], device=self.device)  # fmt: skip
+        self._refresh_joints()
+
+    def _refresh_joints(self) -> None:
+        """The project-order joint arrays (``actuated_q``, ``actuated_qd``) and the base frame from Newton's state."""
         wp.launch(gather_actuated, dim=(self.num_envs, 16), inputs=[self.joint_q, self.joint_qd, self.coord_index,
                   self.dof_index], outputs=[self.actuated_q, self.actuated_qd], device=self.device)  # fmt: skip
         self._update_base_frame()
@@ -190,7 +194,6 @@ class Simulator(SimBuffers):
 
         ``env_ids`` and the coordinates may be Warp arrays or torch tensors on the simulator's device (what the
         environment passes: the reset runs in kernels, with no host copy) or NumPy arrays / lists."""
-        import newton
 
         ids = self._ids(env_ids)
         k = ids.shape[0]
@@ -206,7 +209,6 @@ class Simulator(SimBuffers):
         wp.launch(clear_contact_rows, dim=k, inputs=[ids], outputs=[self.wheel_force, self.wheel_contact,
                   self.body_collision, self.unstable], device=self.device)  # fmt: skip
         self.physics.reset_rows(ids)
-        newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state, indices=ids)
         self._post_step()
 
     def set_state(self, env_ids, joint_q, joint_qd) -> None:
@@ -214,25 +216,23 @@ class Simulator(SimBuffers):
         and the last step's contact summaries; their body poses, the project-order joint arrays (``actuated_q``,
         ``actuated_qd``) and the base frame follow the new coordinates. Accepts Warp arrays or torch tensors on the
         device (no host copy) or NumPy arrays."""
-        import newton
-
         ids = self._ids(env_ids)
         if ids.shape[0] == 0:
             return
         self._write_rows(ids, joint_q, joint_qd)
-        newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state, indices=ids)
-        wp.launch(gather_actuated, dim=(self.num_envs, 16), inputs=[self.joint_q, self.joint_qd, self.coord_index,
-                  self.dof_index], outputs=[self.actuated_q, self.actuated_qd], device=self.device)  # fmt: skip
-        self._update_base_frame()
+        self._refresh_joints()
 
     def _write_rows(self, ids: wp.array, joint_q, joint_qd) -> None:
-        """Scatter the coordinates of robots ``ids`` into Newton's state and hand them to the physics (the base frame
-        is left to the caller: a reset recomputes it once with the rest of :meth:`_post_step`)."""
+        """Scatter the coordinates of robots ``ids`` into Newton's state, recompute their body poses and hand them to
+        the physics (the joint arrays and the base frame are left to the caller: :meth:`_refresh_joints`)."""
+        import newton
+
         k, lay = ids.shape[0], self.layout
         q = self._rows(joint_q, k, lay.coords_per_world, "joint_q")
         qd = self._rows(joint_qd, k, lay.dofs_per_world, "joint_qd")
         wp.launch(scatter_state_rows, dim=k, inputs=[ids, q, qd], outputs=[self.joint_q, self.joint_qd],
                   device=self.device)  # fmt: skip
+        newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state, indices=ids)
         self.physics.state_written(ids)
 
     def state_written(self, env_ids=None) -> None:
