@@ -16,7 +16,9 @@ from wqwarp.rl.gait_selection import (
     TemperatureSchedule,
     WindowLabeler,
     command_type,
+    feasible_gaits,
     gait_probabilities,
+    tracking_error,
 )
 from wqwarp.rl.presets import make_preset
 
@@ -35,13 +37,15 @@ def test_windows_are_labelled_with_the_realised_mean_and_cut_windows_are_dropped
     no = torch.zeros(4, dtype=torch.bool)
     p = [torch.tensor([1.0, 10.0, 100.0, 5.0]), torch.tensor([2.0, 20.0, 200.0, 5.0]),
          torch.tensor([6.0, 30.0, 300.0, 5.0])]  # fmt: skip
-    out = lab.step(p[0], active, no)
+    err = [0.1 * q for q in p]  # squared tracking errors, labelled alongside
+    out = lab.step(p[0], err[0], active, no)
     assert len(out[2]) == 0
-    out = lab.step(p[1], active, torch.tensor([False, True, False, False]))  # robot 1 reset
+    out = lab.step(p[1], err[1], active, torch.tensor([False, True, False, False]))  # robot 1 reset
     assert len(out[2]) == 0 and lab.open.tolist() == [True, False, True, False]
-    out = lab.step(p[2], torch.tensor([1, 1, 2, 0]), no)  # robot 2's gait switched
-    x, g, y = out
+    out = lab.step(p[2], err[2], torch.tensor([1, 1, 2, 0]), no)  # robot 2's gait switched
+    x, g, y, e = out
     assert y.tolist() == [pytest.approx(3.0)]  # (1 + 2 + 6) / 3, robot 0 only
+    assert e.tolist() == [pytest.approx(0.3)]
     assert g.tolist() == [1] and x.tolist() == [[0.0, 1.0]]
     assert lab.dropped == 2 and not lab.open.any()
     # A new window starts only where the requested gait is running.
@@ -76,7 +80,7 @@ def test_selector_holds_a_gait_for_the_decision_interval_and_labels_one_window_p
     sel.select(obs, running)  # both due at start
     assert sel.requested.tolist() == [1, 1] and not sel.due.any()
     for k, watts in enumerate([3.0, 4.0, 8.0]):
-        sel.record_step(torch.tensor([watts, 1.0]), running, cmd, no, no)
+        sel.record_step(torch.tensor([watts, 1.0]), torch.zeros(2), running, cmd, no, no)
         if k < 2:
             assert not sel.due.any()
             sel.select(obs, running)
@@ -85,7 +89,8 @@ def test_selector_holds_a_gait_for_the_decision_interval_and_labels_one_window_p
     assert labels == [pytest.approx(1.0), pytest.approx(5.0)]
     # A reset makes a robot due at once and drops its open window.
     sel.select(obs, running)
-    sel.record_step(torch.tensor([1.0, 1.0]), running, cmd, torch.tensor([True, False]), torch.tensor([True, False]))
+    sel.record_step(torch.tensor([1.0, 1.0]), torch.zeros(2), running, cmd, torch.tensor([True, False]),
+                    torch.tensor([True, False]))  # fmt: skip
     sel.on_reset(torch.tensor([0]))
     assert sel.due.tolist() == [True, False] and sel.labeler.dropped == 1
 
@@ -139,6 +144,63 @@ def test_command_types():
     assert [COMMAND_TYPES[i] for i in command_type(cmd)] == ["forward", "lateral", "yaw", "mixed", "zero"]
 
 
+# --- the feasible criterion (beyond the paper) ------------------------------------------------------------------------
+def test_tracking_error_and_the_candidates_within_the_margin():
+    cmd = torch.tensor([[0.5, 0.3, -0.2], [0.0, 0.0, 0.0]])
+    lin = torch.tensor([[0.4, 0.0, 9.0], [0.1, -0.1, 0.0]])  # v_z never counts
+    ang = torch.tensor([[5.0, 5.0, 0.1], [0.0, 0.0, 0.2]])  # only w_z counts
+    assert tracking_error(cmd, lin, ang).tolist() == pytest.approx([0.01 + 0.09 + 0.09, 0.01 + 0.01 + 0.04])
+    err = torch.tensor([[0.20, 0.010, 0.015], [0.001, 0.002, 0.050]])
+    assert feasible_gaits(err, 0.02).tolist() == [[False, True, True], [True, True, False]]
+    assert feasible_gaits(err, 0.001).tolist() == [[False, True, False], [True, True, False]]
+    p = torch.tensor([[1.0, 9.0, 5.0], [3.0, 1.0, 0.5]])
+    cand = feasible_gaits(err, 0.02)
+    assert gait_probabilities(p, 0.0, cand).argmax(1).tolist() == [2, 1]  # cheapest candidate, not cheapest gait
+    probs = gait_probabilities(p, 1e6, cand)  # hot: uniform over the candidates, never a gait that cannot track
+    assert torch.allclose(probs, torch.tensor([[0.0, 0.5, 0.5], [0.5, 0.5, 0.0]]), atol=1e-5)
+
+
+def test_the_feasible_selector_picks_the_cheapest_gait_predicted_to_track():
+    sel = _selector(6, temperature_start=1e-6, temperature_end=1e-6, criterion="feasible", feasible_margin=0.02)
+    _constant_power(sel, [1.0, 9.0, 5.0])  # driving the cheapest
+    obs, running = torch.zeros(6, 2), torch.ones(6, dtype=torch.long)
+    sel.select(obs, running)
+    assert (sel.requested == 0).all()  # the tracking head is not fitted yet: every gait is a candidate
+    with torch.no_grad():
+        for prm in sel.tracker.net.parameters():
+            prm.zero_()
+        sel.tracker.net[-1].bias.copy_(torch.tensor([0.2, 0.01, 0.015]))  # driving cannot track this command
+    sel.tracker_fitted = True
+    sel.request_selection()
+    sel.select(obs, running)
+    assert (sel.requested == 2).all()  # walking: the cheaper of the two that track
+    assert sel.log_scalars()["Gait/candidates_per_selection"] == pytest.approx(2.0)  # counted once fitted
+    sel.cfg.feasible_margin = 0.001
+    sel.request_selection()
+    sel.select(obs, running)
+    assert (sel.requested == 1).all()
+    # While training at a finite tau a non-candidate keeps odds e^(-penalty / tau) against a candidate of equal
+    # power (penalty in units of the mean predicted power); the argmin (evaluation) never picks it.
+    n = 20000
+    hot = _selector(n, temperature_start=0.5, temperature_end=0.5, criterion="feasible", feasible_penalty=0.5)
+    _constant_power(hot, [6.0, 6.0, 6.0])
+    with torch.no_grad():
+        for prm in hot.tracker.net.parameters():
+            prm.zero_()
+        hot.tracker.net[-1].bias.copy_(torch.tensor([0.3, 0.01, 0.015]))
+    hot.tracker_fitted = True
+    hot.select(torch.zeros(n, 2), torch.ones(n, dtype=torch.long))
+    freq = torch.bincount(hot.requested.long(), minlength=3).double() / n
+    expect = torch.softmax(-torch.tensor([1.0 + 0.5, 1.0, 1.0], dtype=torch.float64) / 0.5, 0)
+    assert torch.all((freq - expect).abs() < 4.5 * torch.sqrt(expect * (1 - expect) / n)), (freq, expect)
+    hot.training = False
+    hot.request_selection()
+    hot.select(torch.zeros(n, 2), torch.ones(n, dtype=torch.long))
+    assert (hot.requested != 0).all()
+    # The paper's rule builds no tracking head (and draws nothing more from torch's RNG).
+    assert _selector(2).tracker is None
+
+
 # --- the network -----------------------------------------------------------------------------------------------------
 def test_predictor_fits_a_synthetic_power_function_of_the_observation():
     # p_g(o) = a_g + b_g * o0^2 + c_g * o1 with distinct coefficients per gait, labels only for the gait that ran.
@@ -165,11 +227,31 @@ def test_predictor_fits_a_synthetic_power_function_of_the_observation():
         assert out[f"rel_error_{g}"] < 0.05
 
 
+def test_the_tracking_head_fits_the_error_of_the_gait_that_ran():
+    # e_g(o) = gait g's squared error: driving fails a lateral command o1 (e = o1^2), the legged gaits track it.
+    torch.manual_seed(1)
+    n = 4000
+    sel = _selector(1, learning_rate=3e-3, batch_size=256, updates_per_iteration=50, buffer_size=n,
+                    criterion="feasible")  # fmt: skip
+    x = torch.rand(n, 2) * 2 - 1
+    gait = torch.randint(0, 3, (n,))
+    truth = torch.stack([x[:, 1] ** 2, 0.01 + 0.0 * x[:, 0], 0.02 + 0.01 * x[:, 0]], dim=1)
+    e = truth.gather(1, gait[:, None]).squeeze(1)
+    sel.add_windows(x, gait, torch.full((n,), 10.0), e)
+    for _ in range(20):
+        out = sel.fit()
+    assert "tracking_loss" in out and sel.tracker_fitted
+    xt = torch.tensor([[0.0, 0.8], [0.0, 0.05]])
+    assert sel.candidate_gaits(xt).tolist() == [[False, True, True], [True, True, True]]
+    assert out["tracking_abs_error_driving"] < 0.03
+
+
 # --- the env and the runner ------------------------------------------------------------------------------------------
-def _env(preset: str, n: int = 4):
+def _env(preset: str, n: int = 4, criterion: str = "power"):
     from wqwarp.rl.env import WheeledGo1Env
 
     cfg = make_preset(preset)
+    cfg.predictor.criterion = criterion
     cfg.sim.num_envs = n
     cfg.predictor.batch_size = 8  # a tiny rollout completes only a few windows: fit on few, hold out half
     cfg.predictor.holdout_fraction = 0.5
@@ -197,8 +279,8 @@ def test_requested_gait_has_one_home_and_the_critic_reads_the_running_gait():
     assert (env.active_gait() == 0).all()
 
 
-@pytest.mark.parametrize("preset", ["ours", "no_wheel_vel"])
-def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(preset, tmp_path):
+@pytest.mark.parametrize(("preset", "criterion"), [("ours", "power"), ("no_wheel_vel", "power"), ("ours", "feasible")])
+def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(preset, criterion, tmp_path):
     import contextlib
     import io
 
@@ -206,7 +288,7 @@ def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(pr
     from wqwarp.rl.export import export_onboard_policy
     from wqwarp.rl.runner import WqRunner
 
-    env = _env(preset, 8)
+    env = _env(preset, 8, criterion)
     assert env.cfg.gait.selection == "predictive"
     assert env.cfg.action.use_nominal_wheels == (preset == "ours")
     tcfg = TrainConfig(num_steps_per_env=60, max_iterations=2, save_interval=1)
@@ -234,13 +316,22 @@ def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(pr
     state = ckpt["gait_selector_state_dict"]
     assert state["name"] == "predictive" and state["iteration"] == 2
 
-    env2 = _env(preset, 8)
+    env2 = _env(preset, 8, criterion)
     with contextlib.redirect_stdout(io.StringIO()):
         runner2 = WqRunner(env2, tcfg.rsl_rl_dict(), log_dir=None, device="cpu")
     runner2.load(str(tmp_path / "model_1.pt"))
     obs = env2.get_observations()["policy"]
     assert torch.equal(env2.gait_selector.predict(obs), sel.predict(obs))
     assert env2.gait_selector.iteration == 2
+    if criterion == "feasible":  # the tracking head learnt windows and travels with the checkpoint
+        assert "Predictor/tracking_loss" in logged and sel.tracker_fitted and "tracker" in state
+        assert torch.equal(env2.gait_selector.predict_error(obs), sel.predict_error(obs))
+        paths = export_onboard_policy(runner2, str(tmp_path / "export"))
+        policy = torch.export.load(paths["torch_export"]).module()
+        meta = json.loads(open(paths["json"]).read())
+        actions, power, error = policy(torch.zeros(3, meta["history_length"], meta["proprio_dim"]))
+        assert error.shape == (3, 3) and "candidates" in meta["gait_selection"]["rule"]
+        return
 
     # The export returns the actions and each gait's predicted power; its json states the argmin rule.
     paths = export_onboard_policy(runner2, str(tmp_path / "export"))

@@ -9,7 +9,9 @@ in one batch, commands held, no randomisation. Measured per robot over the secon
 the same steps of the predictor's output for that gait, from the observations of the cell's robots. The measured
 winner is the cheapest gait whose robot stayed up, the tracking winner the cheapest whose robot also tracked its
 command (squared velocity error at most :data:`TRACKING_LIMIT`); the predicted winner is the argmin of the
-predictions (what the policy would select).
+predictions (what the paper's rule selects). A checkpoint trained with the ``feasible`` criterion (beyond the paper)
+also reports the tracking head's predicted squared error per gait and the gait its rule selects (the cheapest
+predicted power among the gaits predicted to track within ``feasible_margin`` of the best).
 Energy alone can favour a gait that does not do the task (driving under a lateral command stands still, cheaply):
 the figure marks such cells.
 
@@ -29,6 +31,7 @@ import torch
 
 from wqwarp.eval.options import ProtocolOptions, option
 from wqwarp.eval.rollout import base_velocity, evaluation_session, start_rollout
+from wqwarp.rl.gait_selection import feasible_gaits
 
 RANGES = {"vx": (-1.0, 1.0), "vy": (-0.7, 0.7), "wz": (-0.7, 0.7)}
 AXES = {"vx": 0, "vy": 1, "wz": 2}
@@ -54,8 +57,9 @@ def grid_commands(grid: int) -> list[tuple[str, tuple[float, float, float]]]:
 def measure_forced_gaits(runner, commands: torch.Tensor, gaits: torch.Tensor, seconds: float, progress=None) -> dict:
     """Robot i holds ``commands[i]`` in gait ``gaits[i]`` for ``seconds`` [s]; per robot over the second half: mean
     p_cost (``p``, ``legs``, ``wheels``) [W], squared velocity error ``err``, the predictor's mean output per gait
-    ``pred`` (N, G) [W], the share of steps not in the forced gait ``wrong_gait``, and ``fell`` (N,) bool. Needs the
-    predictive selection; the env is left as it was found."""
+    ``pred`` (N, G) [W] (and, with a tracking head, its mean output ``pred_err`` (N, G)), the share of steps not in
+    the forced gait ``wrong_gait``, and ``fell`` (N,) bool. Needs the predictive selection; the env is left as it
+    was found."""
     env = runner.env
     sel = env.gait_selector
     if sel.name != "predictive":
@@ -67,9 +71,12 @@ def measure_forced_gaits(runner, commands: torch.Tensor, gaits: torch.Tensor, se
         n, dev = env.num_envs, env.device
         acc = {k: torch.zeros(n, device=dev) for k in ("p", "legs", "wheels", "err", "wrong_gait", "count")}
         acc["pred"] = torch.zeros(n, sel.num_gaits, device=dev)
+        if sel.tracker is not None:
+            acc["pred_err"] = torch.zeros(n, sel.num_gaits, device=dev)
         fell = torch.zeros(n, dtype=torch.bool, device=dev)
         for k in range(steps):
             p_now = sel.predict(obs["policy"])
+            e_now = sel.predict_error(obs["policy"])
             obs, _, dones, _ = env.step(runner.policy(obs))
             fell |= dones.bool()
             if k >= steps // 2:
@@ -78,6 +85,8 @@ def measure_forced_gaits(runner, commands: torch.Tensor, gaits: torch.Tensor, se
                 acc["legs"] += env.tv["p_cost_legs"]
                 acc["wheels"] += env.tv["p_cost_wheels"]
                 acc["pred"] += p_now
+                if e_now is not None:
+                    acc["pred_err"] += e_now
                 acc["wrong_gait"] += (env.active_gait() != gaits).float()
                 acc["count"] += 1
             if progress is not None:
@@ -93,8 +102,9 @@ def _cheapest(gaits: list[str], power: torch.Tensor, candidates: list[int]) -> s
     return gaits[min(candidates, key=lambda k: float(power[k]))] if candidates else None
 
 
-def summarise_cells(cells: list, gaits: list[str], m: dict) -> list[dict]:
-    """One result entry per cell from :func:`measure_forced_gaits` of robots ordered cell * G + gait."""
+def summarise_cells(cells: list, gaits: list[str], m: dict, margin: float | None = None) -> list[dict]:
+    """One result entry per cell from :func:`measure_forced_gaits` of robots ordered cell * G + gait; ``margin``:
+    the ``feasible`` criterion's margin when the measurement has the tracking head's predictions."""
     g = len(gaits)
     out = []
     for i, (plane, command) in enumerate(cells):
@@ -113,6 +123,11 @@ def summarise_cells(cells: list, gaits: list[str], m: dict) -> list[dict]:
             "measured_winner_tracking": _cheapest(gaits, cell["p"], ok),
             "predicted_winner": min(predicted, key=predicted.get),
         })  # fmt: skip
+        if "pred_err" in cell:
+            pred_err = cell["pred_err"].mean(0)
+            cand = feasible_gaits(pred_err[None], margin)[0].nonzero().flatten().tolist()
+            out[-1]["predicted_sq_velocity_error"] = {gaits[k]: float(pred_err[k]) for k in range(g)}
+            out[-1]["selected_feasible"] = _cheapest(gaits, cell["pred"].mean(0), cand)
     return out
 
 
@@ -148,7 +163,7 @@ def energy_map(opts: EnergyMapOptions, log: TextIO = sys.stdout) -> dict:
             print(f"\r  {100 * k // n:3d} %", end="", flush=True, file=log)
 
     m = measure_forced_gaits(runner, cmd, torch.arange(g, device=dev).repeat(len(cells)), opts.seconds, progress)
-    out_cells = summarise_cells(cells, gaits, m)
+    out_cells = summarise_cells(cells, gaits, m, runner.env.cfg.predictor.feasible_margin)
     agree = [cl["measured_winner"] == cl["predicted_winner"] for cl in out_cells if cl["measured_winner"]]
     print(f"\r{runner.preset} checkpoint (iteration {runner.iteration}): {len(cells)} cells x {g} gaits, "
           f"{opts.seconds:g} s; predicted winner = measured winner in {sum(agree)}/{len(agree)} cells", file=log)
@@ -157,6 +172,11 @@ def energy_map(opts: EnergyMapOptions, log: TextIO = sys.stdout) -> dict:
     untracked = sum(cl["measured_winner"] != cl["measured_winner_tracking"] for cl in out_cells)
     print(f"cells where the cheapest gait does not track its command (squared error > {TRACKING_LIMIT}): {untracked}",
           file=log)  # fmt: skip
+    if "selected_feasible" in out_cells[0]:
+        hit = sum(cl["selected_feasible"] == cl["measured_winner_tracking"] for cl in out_cells
+                  if cl["measured_winner_tracking"])  # fmt: skip
+        told = sum(1 for cl in out_cells if cl["measured_winner_tracking"])
+        print(f"feasible criterion: selects the cheapest gait that tracks in {hit}/{told} cells", file=log)
     return {"checkpoint": opts.checkpoint, "preset": runner.preset, "iteration": runner.iteration,
             "seed": opts.seed, "grid": opts.grid, "seconds": opts.seconds, "wall_time_s": time.time() - t0,
             "winner_agreement": sum(agree) / max(len(agree), 1), "tracking_limit": TRACKING_LIMIT,

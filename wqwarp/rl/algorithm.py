@@ -90,7 +90,10 @@ class GaitSelectorLearner:
 
     def modules(self) -> list[nn.Module]:
         """Networks kept identical across ranks (the power predictor, if any)."""
-        return [self.selector.predictor] if isinstance(self.selector, PredictiveGaitSelector) else []
+        sel = self.selector
+        if not isinstance(sel, PredictiveGaitSelector):
+            return []
+        return [sel.predictor] if sel.tracker is None else [sel.predictor, sel.tracker]
 
     def fit(self) -> dict[str, float]:
         """Fit the power predictor; its masked regression loss (in target standard deviations squared)."""

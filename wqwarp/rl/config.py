@@ -27,6 +27,8 @@ TemperatureShape = Literal["exponential", "linear", "cosine"]
 """Interpolation of tau between its ends (:attr:`PredictorConfig.temperature_shape`)."""
 EvaluationSelection = Literal["argmin", "sample"]
 """Gait selection outside training (:attr:`PredictorConfig.evaluation_selection`)."""
+SelectionCriterion = Literal["power", "feasible"]
+"""What the predictive selector ranks (:attr:`PredictorConfig.criterion`)."""
 PhaseResidualMode = Literal["offset", "increment"]
 """How the phase residual enters the gait phase (:attr:`ActionConfig.phase_residual_mode`)."""
 TEMPERATURE_SHAPES: tuple[str, ...] = typing.get_args(TemperatureShape)
@@ -172,11 +174,31 @@ class PredictorConfig(CheckedConfig):
     """Replay buffer of the most recent labelled windows."""
     holdout_fraction: float = 0.1
     """Share of windows kept out of training to measure the relative error per gait."""
+    criterion: SelectionCriterion = "power"
+    """What the selection ranks: ``power`` (default, the paper's rule) softmax(-p_est / tau) over every gait;
+    ``feasible`` (beyond the paper) the same softmax over the gaits predicted to track the command: a second MLP
+    (the tracking head) predicts each gait's mean squared tracking error over the horizon, e = (v_x^cmd - v_x)^2 +
+    (v_y^cmd - v_y)^2 + (w^cmd - w)^2, and a gait is a candidate when its e_est is within ``feasible_margin`` of the
+    best gait's. Measured (docs/studies/omnidirectional): with ``power`` a lateral command is cheapest standing
+    still in the driving gait, so ``ours`` stops stepping sideways as tau anneals."""
+    feasible_margin: float = 0.02
+    """Candidates of the ``feasible`` criterion: e_est <= min over gaits of e_est + this [(m/s)^2, (rad/s)^2 for w].
+    0.02 is an RMS shortfall of 0.14 m/s: a lateral command of 0.15 m/s or more rules out a gait that stands."""
+    feasible_penalty: float = 2.0
+    """How the ``feasible`` criterion treats a gait that is not a candidate while training: its normalised p_est is
+    raised by this (in units of the robot's mean p_est over the gaits) before the softmax, so its odds fall by
+    e^(penalty / tau): by 2.7x at tau 2, e^40 at 0.05. The mask tightens as tau anneals and early exploration stays
+    close to the paper's. A penalty below the spread of the normalised powers lets a cheap non-candidate win at low
+    tau (driving at 0.23 of the mean against trotting at 1.28 needs more than 1.05); the number of gaits (3) is
+    always enough. Measured (docs/studies/omnidirectional): a hard mask from the first iteration (penalty infinite)
+    made the selection an argmin of the predicted error (1.0-1.1 candidates per selection) and sent 90-100 % of the
+    lateral commands to driving by iteration 600. The argmin (evaluation) never picks a non-candidate."""
 
     def check(self) -> None:
         check_positive(self, "horizon_s", "decision_interval_s", "temperature_start", "temperature_end",
                        "learning_rate", "batch_size", "buffer_size")  # fmt: skip
-        check_positive(self, "temperature_iterations", "updates_per_iteration", strict=False)
+        check_positive(self, "temperature_iterations", "updates_per_iteration", "feasible_margin",
+                       "feasible_penalty", strict=False)  # fmt: skip
         require(0.0 <= self.holdout_fraction < 1.0, "PredictorConfig.holdout_fraction",
                 f"must be in [0, 1), got {self.holdout_fraction}")  # fmt: skip
         require(len(self.hidden_dims) > 0 and min(self.hidden_dims) >= 1, "PredictorConfig.hidden_dims",
@@ -432,6 +454,9 @@ MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("commands.single_axis_weights", [1.0, 1.0, 1.0], "equal odds, the only sampler before the setting existed"),
     ("gait.lateral_gain", 0.0, "no lateral feed-forward before the setting existed"),
     ("gait.lateral_limit", 0.12, "its default (unused at gain 0)"),
+    ("predictor.criterion", "power", "the paper's power-only rule, the only one before the setting existed"),
+    ("predictor.feasible_margin", 0.02, "its default (unused with the power criterion)"),
+    ("predictor.feasible_penalty", 2.0, "its default (unused with the power criterion)"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
 checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""

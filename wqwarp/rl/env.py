@@ -31,7 +31,7 @@ from wqwarp.rl import observations as obs_terms
 from wqwarp.rl.commands import sample_commands, uniform
 from wqwarp.rl.config import EnvConfig
 from wqwarp.rl.estimator import EstimatorTrainer, StateEstimator
-from wqwarp.rl.gait_selection import make_gait_selector
+from wqwarp.rl.gait_selection import make_gait_selector, tracking_error
 from wqwarp.rl.observations import ACTOR_TERMS, ESTIMATE, PRIVILEGED_TERMS
 from wqwarp.rl.rewards import TABLE_II, RewardTerm, check_terms
 from wqwarp.robot import constants as C
@@ -234,7 +234,8 @@ class WheeledGo1Env(VecEnv):
         died = fell | unstable
         time_out = (self.episode_length_buf >= self.max_episode_length) & ~unstable
         dones = died | time_out
-        self.gait_selector.record_step(self.tv["p_cost"], self.active_gait(), self.commands, dones, fell)
+        error = tracking_error(self.commands, self.tv["base_lin_vel"], self.tv["base_ang_vel"])
+        self.gait_selector.record_step(self.tv["p_cost"], error, self.active_gait(), self.commands, dones, fell)
         self.prev2_actions[:] = self.prev_actions
         self.prev_actions[:] = self.actions
         # Metrics see the state before resets; the observations below re-read it after resets and pushes.

@@ -68,6 +68,20 @@ class OnboardPolicyWithPredictor(OnboardPolicy):
         return self.actor(obs), self.predictor(obs)
 
 
+class OnboardPolicyWithFeasibility(OnboardPolicyWithPredictor):
+    """:class:`OnboardPolicyWithPredictor` plus the tracking head (``feasible`` criterion): history -> (actions,
+    predicted power (B, G) [W], predicted mean squared tracking error (B, G))."""
+
+    def __init__(self, actor: nn.Module, estimator: nn.Module, split: int, z_scale: torch.Tensor,
+                 predictor: nn.Module, tracker: nn.Module):  # fmt: skip
+        super().__init__(actor, estimator, split, z_scale, predictor)
+        self.tracker = tracker
+
+    def forward(self, history: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:  # type: ignore[override]
+        obs = self.observation(history)
+        return self.actor(obs), self.predictor(obs), self.tracker(obs)
+
+
 def onboard_module(runner: WqRunner) -> tuple[OnboardPolicy, list[str]]:
     """The onboard module on the CPU in eval mode (copies: the runner's networks are untouched) and its output
     names."""
@@ -76,8 +90,13 @@ def onboard_module(runner: WqRunner) -> tuple[OnboardPolicy, list[str]]:
     estimator = copy.deepcopy(env.estimator).to("cpu").eval()
     z_scale = env.estimate_scale.detach().to("cpu").clone()  # z_t = (v_x, v_y, h) as the observation scales it
     split = env.estimate_index  # z_t is inserted at this column of o_t
-    if env.gait_selector.name == "predictive":
-        predictor = copy.deepcopy(env.gait_selector.predictor).to("cpu").eval()
+    sel = env.gait_selector
+    if sel.name == "predictive":
+        predictor = copy.deepcopy(sel.predictor).to("cpu").eval()
+        if sel.tracker is not None:
+            tracker = copy.deepcopy(sel.tracker).to("cpu").eval()
+            module = OnboardPolicyWithFeasibility(actor, estimator, split, z_scale, predictor, tracker).eval()
+            return module, ["actions", "predicted_power", "predicted_tracking_error"]
         return OnboardPolicyWithPredictor(actor, estimator, split, z_scale, predictor).eval(), ["actions",
                                                                                                "predicted_power"]
     return OnboardPolicy(actor, estimator, split, z_scale).eval(), ["actions"]
@@ -143,6 +162,13 @@ def policy_metadata(env: WheeledGo1Env, outputs: list[str]) -> dict:
             "running gait continues. The gait part of the observation (phase, frequency, DF_swing, nominal wheel "
             "speeds) always describes the running gait.",
         }
+        if selector.tracker is not None:
+            meta["gait_selection"]["predicted_tracking_error"] = (
+                "mean (v_x^cmd - v_x)^2 + (v_y^cmd - v_y)^2 + (w^cmd - w_z)^2 over the next horizon_s, per gait")
+            meta["gait_selection"]["rule"] = meta["gait_selection"]["rule"].replace(
+                "request gait = argmin(predicted_power)",
+                f"candidates = gaits with predicted_tracking_error <= its minimum + {p.feasible_margin}; request "
+                "gait = the candidate of least predicted_power")  # fmt: skip
     return meta
 
 

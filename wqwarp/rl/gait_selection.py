@@ -7,7 +7,11 @@ One interface, three selectors (:func:`make_gait_selector` picks one from ``Gait
                 the next ``horizon_s`` (1 s); robots sample their gait with probabilities softmax(-p_est / tau),
                 tau annealed over the PPO iterations (:class:`TemperatureSchedule`); by default p_est is divided
                 by its mean over the gaits first (``PredictorConfig.power_normalization``), which leaves the argmin
-                unchanged and makes tau a fraction of the robot's mean predicted power
+                unchanged and makes tau a fraction of the robot's mean predicted power; with
+                ``PredictorConfig.criterion = "feasible"`` (beyond the paper) a tracking head predicts each gait's
+                mean squared tracking error over the horizon too; a gait not predicted to track within
+                ``feasible_margin`` of the best one has its odds cut by e^(feasible_penalty / tau) while training
+                and is never the argmin
 
 The environment owns a selector and calls it at fixed points of ``step`` (:meth:`GaitSelector.record_step` after the
 physics, :meth:`GaitSelector.on_reset` for robots reset, :meth:`GaitSelector.select` once o_t is known). The
@@ -17,9 +21,10 @@ continuity rule allows (no leg of the active gait in swing; ``wqwarp.kernels.gai
 
 Timing (predictive). A robot's gait is held for ``decision_interval_s`` counted from the first full policy step
 run in it, then selected again (it may keep the same gait). A labelled window starts at an observation o_t where
-the requested gait is in effect and no window is open; it is labelled with the realised mean p_cost of the next
-``horizon`` policy steps, for the gait that ran. A window cut by a reset or by a gait switch is dropped, never
-labelled. With decision interval = horizon, every selection that is not cut yields one window.
+the requested gait is in effect and no window is open; it is labelled with the realised mean p_cost (and mean
+squared tracking error) of the next ``horizon`` policy steps, for the gait that ran. A window cut by a reset or by a
+gait switch is dropped, never labelled. With decision interval = horizon, every selection that is not cut yields
+one window.
 
 Learning happens in the algorithm, not in ``VecEnv.step``: the env only stores labelled windows while its
 ``collect_training_data`` flag is set (``wqwarp.rl.runner.WqRunner.learn`` sets it), and the algorithm calls
@@ -89,8 +94,22 @@ class TemperatureSchedule:
         return self.start + (self.end - self.start) * s
 
 
-def gait_probabilities(power: torch.Tensor, temperature: float) -> torch.Tensor:
-    """softmax(-power / tau) over the last axis (paper's selection probabilities); tau <= 0 gives the argmin."""
+def tracking_error(commands: torch.Tensor, lin_vel: torch.Tensor, ang_vel: torch.Tensor) -> torch.Tensor:
+    """Squared tracking error of each robot (N,): (v_x^cmd - v_x)^2 + (v_y^cmd - v_y)^2 + (w^cmd - w_z)^2, base frame
+    (the quantities of Table II's three tracking terms)."""
+    return ((commands[:, :2] - lin_vel[:, :2]) ** 2).sum(dim=1) + (commands[:, 2] - ang_vel[:, 2]) ** 2
+
+
+def feasible_gaits(error: torch.Tensor, margin: float) -> torch.Tensor:
+    """(B, G) bool: the gaits whose predicted tracking error is within ``margin`` of the row's best (never empty)."""
+    return error <= error.min(dim=-1, keepdim=True).values + margin
+
+
+def gait_probabilities(power: torch.Tensor, temperature: float, candidates: torch.Tensor | None = None) -> torch.Tensor:
+    """softmax(-power / tau) over the last axis (paper's selection probabilities); tau <= 0 gives the argmin.
+    ``candidates`` (same shape, bool; at least one per row) restricts both to those gaits."""
+    if candidates is not None:
+        power = power.masked_fill(~candidates, float("inf"))
     if temperature <= 0.0:
         return torch.nn.functional.one_hot(torch.argmin(power, dim=-1), power.shape[-1]).to(power.dtype)
     return torch.softmax(-power / temperature, dim=-1)
@@ -98,7 +117,8 @@ def gait_probabilities(power: torch.Tensor, temperature: float) -> torch.Tensor:
 
 # --- power prediction network ----------------------------------------------------------------------------------------
 class PowerPredictor(nn.Module):
-    """MLP from the actor observation o_t (B, D) to each gait's predicted mean p_cost over the horizon (B, G) [W].
+    """MLP from the actor observation o_t (B, D) to each gait's predicted mean p_cost over the horizon (B, G) [W]
+    (the same module, with other targets, is the ``feasible`` criterion's tracking head [(m/s)^2]).
 
     Inputs and targets are normalised inside the module (buffers ``obs_mean``, ``obs_std``, ``target_mean``,
     ``target_std``, set from the replay buffer at each fit), so the exported module takes raw o_t and returns watts.
@@ -121,7 +141,8 @@ class PowerPredictor(nn.Module):
 
 
 class WindowLabeler:
-    """Per-robot windows of ``horizon`` policy steps -> labelled samples (o_t at the window start, gait, mean p_cost).
+    """Per-robot windows of ``horizon`` policy steps -> labelled samples (o_t at the window start, gait, mean p_cost,
+    mean squared tracking error).
 
     :meth:`start` opens a window at o_t for robots whose requested gait is in effect and that have none open;
     :meth:`step` adds one policy step's p_cost and returns the windows that completed. A reset or a change of the
@@ -136,6 +157,7 @@ class WindowLabeler:
         self.gait = torch.zeros(num_envs, dtype=torch.long, device=device)
         self.obs = torch.zeros(num_envs, obs_dim, device=device)
         self.sum = torch.zeros(num_envs, device=device)
+        self.err_sum = torch.zeros(num_envs, device=device)
         self.length = torch.zeros(num_envs, dtype=torch.long, device=device)
         self.dropped = torch.zeros((), dtype=torch.long, device=device)
         """Windows dropped since construction (reset or gait switch inside; a tensor: no host sync per step)."""
@@ -145,40 +167,47 @@ class WindowLabeler:
         self.obs[new] = obs[new]
         self.gait[new] = active[new]
         self.sum[new] = 0.0
+        self.err_sum[new] = 0.0
         self.length[new] = 0
         self.open |= new
 
-    def step(self, p_cost: torch.Tensor, active: torch.Tensor, reset: torch.Tensor):
-        """Account one policy step that ran gait ``active`` and cost ``p_cost`` [W]; ``reset`` marks robots reset
-        after it. Returns (obs (K, D), gait (K,), mean p_cost (K,)) of the windows completed by this step."""
+    def step(self, p_cost: torch.Tensor, error: torch.Tensor, active: torch.Tensor, reset: torch.Tensor):
+        """Account one policy step that ran gait ``active``, cost ``p_cost`` [W] and tracked with squared error
+        ``error``; ``reset`` marks robots reset after it. Returns (obs (K, D), gait (K,), mean p_cost (K,), mean
+        error (K,)) of the windows completed by this step."""
         cut = self.open & ((active != self.gait) | reset)
         self.dropped += cut.sum()
         self.open &= ~cut
-        self.sum += torch.where(self.open, p_cost, torch.zeros_like(p_cost))
+        zero = torch.zeros_like(p_cost)
+        self.sum += torch.where(self.open, p_cost, zero)
+        self.err_sum += torch.where(self.open, error, zero)
         self.length += self.open.long()
         done = self.open & (self.length >= self.horizon)
         self.open &= ~done
-        return self.obs[done].clone(), self.gait[done].clone(), self.sum[done] / self.horizon
+        return (self.obs[done].clone(), self.gait[done].clone(), self.sum[done] / self.horizon,
+                self.err_sum[done] / self.horizon)  # fmt: skip
 
 
 class WindowRing:
-    """Ring buffer of the most recent labelled windows: o_t (cap, D), gait (cap,), mean p_cost (cap,) [W]."""
+    """Ring buffer of the most recent labelled windows: o_t (cap, D), gait (cap,), mean p_cost (cap,) [W], mean
+    squared tracking error (cap,)."""
 
     def __init__(self, capacity: int, obs_dim: int, device):
         self.obs = torch.zeros(capacity, obs_dim, device=device)
         self.gait = torch.zeros(capacity, dtype=torch.long, device=device)
         self.y = torch.zeros(capacity, device=device)
+        self.e = torch.zeros(capacity, device=device)
         self.n = 0
         """Windows held (at most the capacity)."""
         self.i = 0
         """Next slot to write."""
 
-    def put(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor) -> None:
+    def put(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor, e: torch.Tensor) -> None:
         cap, m = len(self.y), len(y)
         if m > cap:
-            obs, gait, y, m = obs[-cap:], gait[-cap:], y[-cap:], cap
+            obs, gait, y, e, m = obs[-cap:], gait[-cap:], y[-cap:], e[-cap:], cap
         pos = (self.i + torch.arange(m, device=self.y.device)) % cap
-        self.obs[pos], self.gait[pos], self.y[pos] = obs, gait, y
+        self.obs[pos], self.gait[pos], self.y[pos], self.e[pos] = obs, gait, y, e
         self.i = (self.i + m) % cap
         self.n = min(self.n + m, cap)
 
@@ -192,9 +221,10 @@ class GaitSelector:
     gen: torch.Generator | None = None
     """The selector's own random stream (the predictive selector's softmax sampling); None when it draws nothing."""
 
-    def record_step(self, p_cost, active, commands, reset, died) -> None:
-        """After the physics of a policy step (before resets): p_cost (N,) [W], running gait (N,), commands (N, 3),
-        reset (N,) bool (died or timed out), died (N,) bool."""
+    def record_step(self, p_cost, error, active, commands, reset, died) -> None:
+        """After the physics of a policy step (before resets): p_cost (N,) [W], squared tracking error (N,)
+        (:func:`tracking_error`), running gait (N,), commands (N, 3), reset (N,) bool (died or timed out), died (N,)
+        bool."""
 
     def on_reset(self, ids: torch.Tensor) -> None:
         """Robots ``ids`` were reset (their gait restarts in the requested gait)."""
@@ -254,7 +284,7 @@ class FixedGaitSelector(GaitSelector):
         self.since_switch = torch.full((len(requested),), 10**9, dtype=torch.long, device=dev)
         self.last_active: torch.Tensor | None = None
 
-    def record_step(self, p_cost, active, commands, reset, died) -> None:
+    def record_step(self, p_cost, error, active, commands, reset, died) -> None:
         active = active.long()
         ctype = command_type(commands)
         self.usage.index_put_((active, ctype), torch.ones_like(p_cost), accumulate=True)
@@ -320,6 +350,16 @@ class PredictiveGaitSelector(FixedGaitSelector):
         """True while the runner collects training data: sample at the schedule's tau and record windows."""
         self.predictor = PowerPredictor(obs_dim, self.num_gaits, tuple(cfg.hidden_dims)).to(dev)
         self.optimizer = torch.optim.Adam(self.predictor.parameters(), lr=cfg.learning_rate)
+        self.tracker: PowerPredictor | None = None
+        """The ``feasible`` criterion's tracking head: each gait's mean squared tracking error over the horizon
+        (built only for that criterion: the paper's rule draws no extra initialisation from torch's RNG)."""
+        self.tracker_fitted = False
+        """True once the tracking head was fitted: before, every gait is a candidate."""
+        if cfg.criterion == "feasible":
+            self.tracker = PowerPredictor(obs_dim, self.num_gaits, tuple(cfg.hidden_dims)).to(dev)
+            self.tracker_optimizer = torch.optim.Adam(self.tracker.parameters(), lr=cfg.learning_rate)
+        self.candidates = torch.zeros(2, device=dev)
+        """Candidate gaits offered and selections made since the last log (a tensor: no host sync per step)."""
         self.labeler = WindowLabeler(n, obs_dim, self.horizon, dev)
         self.gen = torch.Generator(device=dev)
         self.gen.manual_seed(seed + 7919)
@@ -357,8 +397,8 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.training = training
 
     # --- env hooks ---------------------------------------------------------------------------------------------------
-    def record_step(self, p_cost, active, commands, reset, died) -> None:
-        super().record_step(p_cost, active, commands, reset, died)
+    def record_step(self, p_cost, error, active, commands, reset, died) -> None:
+        super().record_step(p_cost, error, active, commands, reset, died)
         active = active.long()
         req = self.requested.long()
         ran = (active == req) & (self.prev_active == req)
@@ -366,9 +406,9 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.due |= self.in_gait >= self.decision_steps
         self.prev_active = active.clone()
         if self.training:
-            obs, gait, y = self.labeler.step(p_cost, active, reset)
+            obs, gait, y, e = self.labeler.step(p_cost, error, active, reset)
             if len(y):
-                self._store(obs, gait, y)
+                self._store(obs, gait, y, e)
 
     def on_reset(self, ids: torch.Tensor) -> None:
         super().on_reset(ids)
@@ -399,9 +439,18 @@ class PredictiveGaitSelector(FixedGaitSelector):
             self.due[ids] = False
         elif len(ids):
             power = self.predictor(obs[ids])
+            mean = power.mean(dim=1, keepdim=True).clamp(min=1.0)
             if self.cfg.power_normalization == "mean":
-                power = power / power.mean(dim=1, keepdim=True).clamp(min=1.0)
-            probs = gait_probabilities(power, self.temperature)
+                power, mean = power / mean, torch.ones_like(mean)
+            candidates = self.candidate_gaits(obs[ids])
+            tau = self.temperature
+            if candidates is not None:
+                self.candidates[0] += candidates.sum()
+                self.candidates[1] += len(ids)
+                if tau > 0.0:  # softened while training: the non-candidates' odds fall with tau (feasible_penalty)
+                    power = power + self.cfg.feasible_penalty * mean * (~candidates).to(power.dtype)
+                    candidates = None
+            probs = gait_probabilities(power, tau, candidates)
             choice = torch.multinomial(probs, 1, generator=self.gen).flatten()
             self.requested[ids] = choice.to(self.requested.dtype)
             self.in_gait[ids] = 0
@@ -414,53 +463,79 @@ class PredictiveGaitSelector(FixedGaitSelector):
         with torch.no_grad():
             return self.predictor(obs)
 
+    def predict_error(self, obs: torch.Tensor) -> torch.Tensor | None:
+        """Predicted mean squared tracking error of each gait over the horizon (N, G); None without a tracking head."""
+        if self.tracker is None:
+            return None
+        with torch.no_grad():
+            return self.tracker(obs)
+
+    def candidate_gaits(self, obs: torch.Tensor) -> torch.Tensor | None:
+        """(N, G) bool: the gaits the ``feasible`` criterion offers for o_t; None (every gait) with the ``power``
+        criterion or before the tracking head was fitted."""
+        if self.tracker is None or not self.tracker_fitted:
+            return None
+        return feasible_gaits(self.predict_error(obs), self.cfg.feasible_margin)
+
     # --- learning ----------------------------------------------------------------------------------------------------
-    def _store(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor) -> None:
+    def _store(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor, e: torch.Tensor) -> None:
         """Add completed windows: every ``1/holdout_fraction``-th window goes to the held-out set."""
         every = int(round(1.0 / self.cfg.holdout_fraction)) if self.cfg.holdout_fraction > 0 else 0
         number = self.windows + 1 + torch.arange(len(y), device=y.device)
         self.windows += len(y)
         held = (number % every == 0) if every else torch.zeros_like(number, dtype=torch.bool)
-        self.holdout.put(obs[held], gait[held], y[held])
-        self.replay.put(obs[~held], gait[~held], y[~held])
+        self.holdout.put(obs[held], gait[held], y[held], e[held])
+        self.replay.put(obs[~held], gait[~held], y[~held], e[~held])
 
-    def add_windows(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor) -> None:
-        """Add labelled windows directly (tests, offline data)."""
-        self._store(obs, gait.long(), y)
+    def add_windows(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor,
+                    e: torch.Tensor | None = None) -> None:  # fmt: skip
+        """Add labelled windows directly (tests, offline data); ``e`` (tracking error) defaults to zeros."""
+        self._store(obs, gait.long(), y, torch.zeros_like(y) if e is None else e)
 
-    def _update_normalization(self) -> None:
+    def _update_normalization(self, p: PowerPredictor, y: torch.Tensor, min_std: float) -> None:
+        """Input and per-gait target normalisation of network ``p`` from the replay buffer's o_t and targets ``y``."""
         r = self.replay
         n = r.n
-        x, g, y = r.obs[:n], r.gait[:n], r.y[:n]
-        p = self.predictor
+        x, g, y = r.obs[:n], r.gait[:n], y[:n]
         p.obs_mean.copy_(x.mean(0))
         p.obs_std.copy_(x.std(0, unbiased=False).clamp(min=1e-3) if n > 1 else torch.ones_like(p.obs_std))
         for k in range(self.num_gaits):
             yk = y[g == k]
             if len(yk) >= 2:
                 p.target_mean[k] = yk.mean()
-                p.target_std[k] = yk.std(unbiased=False).clamp(min=0.1)
+                p.target_std[k] = yk.std(unbiased=False).clamp(min=min_std)
 
     def fit(self) -> dict[str, float]:
-        """Masked regression on the replay buffer: only the output of the gait that ran is trained."""
+        """Masked regression on the replay buffer: only the output of the gait that ran is trained (the power
+        predictor, and the tracking head on the same batches when there is one)."""
         r = self.replay
         if r.n < self.cfg.batch_size // 4:
             return {}
-        cfg, p = self.cfg, self.predictor
+        cfg, p, t = self.cfg, self.predictor, self.tracker
         with torch.inference_mode(False), torch.enable_grad():
-            self._update_normalization()
-            total = torch.zeros((), device=r.y.device)
+            self._update_normalization(p, r.y, 0.1)
+            if t is not None:
+                self._update_normalization(t, r.e, 1e-3)
+            total = torch.zeros(2, device=r.y.device)
             for _ in range(cfg.updates_per_iteration):
                 idx = torch.randint(0, r.n, (min(cfg.batch_size, r.n),), generator=self.gen, device=r.y.device)
-                x, g, y = r.obs[idx].clone(), r.gait[idx].clone(), r.y[idx].clone()
-                pred = p.normalized(x).gather(1, g[:, None]).squeeze(1)
-                target = (y - p.target_mean[g]) / p.target_std[g]
-                loss = torch.mean((pred - target) ** 2)
-                self.optimizer.zero_grad()
-                loss.backward()
-                self.optimizer.step()
-                total += loss.detach()
-        out = {"loss": float(total) / cfg.updates_per_iteration}  # one device -> host copy per fit
+                x, g = r.obs[idx].clone(), r.gait[idx].clone()
+                heads = [(p, self.optimizer, r.y[idx].clone())]
+                if t is not None:
+                    heads.append((t, self.tracker_optimizer, r.e[idx].clone()))
+                for k, (net, opt, y) in enumerate(heads):
+                    pred = net.normalized(x).gather(1, g[:, None]).squeeze(1)
+                    target = (y - net.target_mean[g]) / net.target_std[g]
+                    loss = torch.mean((pred - target) ** 2)
+                    opt.zero_grad()
+                    loss.backward()
+                    opt.step()
+                    total[k] += loss.detach()
+        losses = (total / cfg.updates_per_iteration).tolist()  # one device -> host copy per fit
+        out = {"loss": losses[0]}
+        if t is not None:
+            out["tracking_loss"] = losses[1]
+            self.tracker_fitted = True
         out.update(self.holdout_errors())
         self.last_losses = out
         return out
@@ -474,11 +549,15 @@ class PredictiveGaitSelector(FixedGaitSelector):
         if n == 0:
             return out
         pred = self.predictor(h.obs[:n]).gather(1, h.gait[:n, None]).squeeze(1)
+        track = None if self.tracker is None else self.tracker(h.obs[:n]).gather(1, h.gait[:n, None]).squeeze(1)
         for k, name in enumerate(self.gait_names):
             m = h.gait[:n] == k
             if m.any():
                 y = h.y[:n][m]
                 out[f"rel_error_{name}"] = float((pred[m] - y).abs().mean() / y.abs().mean().clamp(min=1e-6))
+                if track is not None:  # absolute: the error itself is near 0 where a gait tracks
+                    out[f"tracking_abs_error_{name}"] = float((track[m] - h.e[:n][m]).abs().mean())
+                    out[f"tracking_error_{name}"] = float(h.e[:n][m].mean())
         return out
 
     def log_scalars(self) -> dict[str, float]:
@@ -486,15 +565,23 @@ class PredictiveGaitSelector(FixedGaitSelector):
         out["Gait/temperature"] = self.used_temperature
         for k, v in self.last_losses.items():
             out[f"Predictor/{k}"] = v
+        offered, selections = self.candidates.tolist()
+        if selections > 0:
+            out["Gait/candidates_per_selection"] = offered / selections
+        self.candidates.zero_()
         out["Predictor/windows"] = float(self.windows)
         out["Predictor/windows_dropped"] = float(self.labeler.dropped)
         return out
 
     # --- checkpoints -------------------------------------------------------------------------------------------------
     def state_dict(self) -> dict:
-        return {"name": self.name, "predictor": self.predictor.state_dict(),
-                "optimizer": self.optimizer.state_dict(), "iteration": self.iteration,
-                "rng": self.gen.get_state()}  # fmt: skip
+        state = {"name": self.name, "predictor": self.predictor.state_dict(),
+                 "optimizer": self.optimizer.state_dict(), "iteration": self.iteration,
+                 "rng": self.gen.get_state()}  # fmt: skip
+        if self.tracker is not None:
+            state.update(tracker=self.tracker.state_dict(), tracker_optimizer=self.tracker_optimizer.state_dict(),
+                         tracker_fitted=self.tracker_fitted)  # fmt: skip
+        return state
 
     def load_state_dict(self, state: dict) -> None:
         super().load_state_dict(state)
@@ -504,6 +591,10 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.iteration = int(state.get("iteration", 0))
         if "rng" in state:  # sampling and replay draws continue where the checkpoint left them
             self.gen.set_state(state["rng"].cpu())
+        if self.tracker is not None and "tracker" in state:  # a power-criterion checkpoint has none: fitted afresh
+            self.tracker.load_state_dict(state["tracker"])
+            self.tracker_optimizer.load_state_dict(state["tracker_optimizer"])
+            self.tracker_fitted = bool(state.get("tracker_fitted", True))
 
 
 def make_gait_selector(cfg, requested: torch.Tensor | None, gait_names: tuple[str, ...], start_gait: int,
