@@ -201,6 +201,32 @@ def test_the_feasible_selector_picks_the_cheapest_gait_predicted_to_track():
     assert _selector(2).tracker is None
 
 
+def test_the_kinematic_criterion_keeps_lateral_commands_off_the_gait_without_swing():
+    from wqwarp.rl.config import EnvConfig
+    from wqwarp.rl.gait_selection import make_gait_selector
+
+    cfg = EnvConfig()
+    cfg.gait.selection, cfg.predictor.criterion = "predictive", "kinematic"
+    cfg.predictor.temperature_start = cfg.predictor.temperature_end = 1e6  # uniform over the candidates
+    n = 6000
+    sel = make_gait_selector(cfg, torch.zeros(n, dtype=torch.int32), GAITS, 1, 0.02, obs_dim=2)
+    assert sel.stepless.tolist() == [True, False, False]  # driving has no swing
+    sel.training = True
+    _constant_power(sel, [1.0, 9.0, 5.0])
+    cmd = torch.zeros(n, 3)
+    cmd[: n // 2, 1] = torch.where(torch.arange(n // 2) % 2 == 0, 0.3, -0.3)  # lateral; the rest forward
+    cmd[n // 2 :, 0] = 0.8
+    cmd[n // 2 :, 1] = 0.05  # below the limit: every gait a candidate
+    sel.select(torch.zeros(n, 2), torch.ones(n, dtype=torch.long), cmd)
+    lateral, forward = sel.requested[: n // 2].long(), sel.requested[n // 2 :].long()
+    assert (lateral != 0).all() and set(lateral.tolist()) == {1, 2}
+    assert set(forward.tolist()) == {0, 1, 2}
+    sel.training = False  # the argmin: the cheapest candidate
+    sel.request_selection()
+    sel.select(torch.zeros(n, 2), torch.ones(n, dtype=torch.long), cmd)
+    assert (sel.requested[: n // 2] == 2).all() and (sel.requested[n // 2 :] == 0).all()
+
+
 # --- the network -----------------------------------------------------------------------------------------------------
 def test_predictor_fits_a_synthetic_power_function_of_the_observation():
     # p_g(o) = a_g + b_g * o0^2 + c_g * o1 with distinct coefficients per gait, labels only for the gait that ran.

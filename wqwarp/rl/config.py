@@ -27,7 +27,7 @@ TemperatureShape = Literal["exponential", "linear", "cosine"]
 """Interpolation of tau between its ends (:attr:`PredictorConfig.temperature_shape`)."""
 EvaluationSelection = Literal["argmin", "sample"]
 """Gait selection outside training (:attr:`PredictorConfig.evaluation_selection`)."""
-SelectionCriterion = Literal["power", "feasible"]
+SelectionCriterion = Literal["power", "feasible", "kinematic"]
 """What the predictive selector ranks (:attr:`PredictorConfig.criterion`)."""
 PhaseResidualMode = Literal["offset", "increment"]
 """How the phase residual enters the gait phase (:attr:`ActionConfig.phase_residual_mode`)."""
@@ -179,11 +179,18 @@ class PredictorConfig(CheckedConfig):
     ``feasible`` (beyond the paper) the same softmax over the gaits predicted to track the command: a second MLP
     (the tracking head) predicts each gait's mean squared tracking error over the horizon, e = (v_x^cmd - v_x)^2 +
     (v_y^cmd - v_y)^2 + (w^cmd - w)^2, and a gait is a candidate when its e_est is within ``feasible_margin`` of the
-    best gait's. Measured (docs/studies/omnidirectional): with ``power`` a lateral command is cheapest standing
-    still in the driving gait, so ``ours`` stops stepping sideways as tau anneals."""
+    best gait's; ``kinematic`` (beyond the paper) the same softmax over the gaits whose nominal pattern can produce
+    the command: a gait without swing (driving: wheels that roll along x) is no candidate for |v_y^cmd| above
+    ``kinematic_lateral_limit``. Measured (docs/studies/omnidirectional): with ``power`` a lateral command is
+    cheapest standing still in the driving gait, so ``ours`` stops stepping sideways as tau anneals; with
+    ``feasible`` the legged gaits, which cannot yet step sideways, track every command worse than driving early in
+    training, so the head rules them out before they learn."""
     feasible_margin: float = 0.02
     """Candidates of the ``feasible`` criterion: e_est <= min over gaits of e_est + this [(m/s)^2, (rad/s)^2 for w].
     0.02 is an RMS shortfall of 0.14 m/s: a lateral command of 0.15 m/s or more rules out a gait that stands."""
+    kinematic_lateral_limit: float = 0.1
+    """|v_y^cmd| [m/s] above which the ``kinematic`` criterion excludes the gaits without swing, in training and in
+    evaluation alike (a property of the gait, not a learned estimate)."""
     feasible_penalty: float = 2.0
     """How the ``feasible`` criterion treats a gait that is not a candidate while training: its normalised p_est is
     raised by this (in units of the robot's mean p_est over the gaits) before the softmax, so its odds fall by
@@ -198,7 +205,7 @@ class PredictorConfig(CheckedConfig):
         check_positive(self, "horizon_s", "decision_interval_s", "temperature_start", "temperature_end",
                        "learning_rate", "batch_size", "buffer_size")  # fmt: skip
         check_positive(self, "temperature_iterations", "updates_per_iteration", "feasible_margin",
-                       "feasible_penalty", strict=False)  # fmt: skip
+                       "feasible_penalty", "kinematic_lateral_limit", strict=False)  # fmt: skip
         require(0.0 <= self.holdout_fraction < 1.0, "PredictorConfig.holdout_fraction",
                 f"must be in [0, 1), got {self.holdout_fraction}")  # fmt: skip
         require(len(self.hidden_dims) > 0 and min(self.hidden_dims) >= 1, "PredictorConfig.hidden_dims",
@@ -457,6 +464,7 @@ MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("predictor.criterion", "power", "the paper's power-only rule, the only one before the setting existed"),
     ("predictor.feasible_margin", 0.02, "its default (unused with the power criterion)"),
     ("predictor.feasible_penalty", 2.0, "its default (unused with the power criterion)"),
+    ("predictor.kinematic_lateral_limit", 0.1, "its default (unused with the power criterion)"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
 checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""

@@ -267,7 +267,7 @@ class WheeledGo1Env(VecEnv):
     def _observe(self) -> TensorDict:
         """o_t and the critic's observation, then the gait selection that reads o_t."""
         obs = self._compute_observations()
-        self.gait_selector.select(obs["policy"], self.active_gait())
+        self.gait_selector.select(obs["policy"], self.active_gait(), self.commands)
         return obs
 
     # --- actions -------------------------------------------------------------------------------------------------

@@ -229,8 +229,9 @@ class GaitSelector:
     def on_reset(self, ids: torch.Tensor) -> None:
         """Robots ``ids`` were reset (their gait restarts in the requested gait)."""
 
-    def select(self, obs: torch.Tensor, active: torch.Tensor) -> None:
-        """Once o_t (N, D) is known: choose the gait of the robots that are due."""
+    def select(self, obs: torch.Tensor, active: torch.Tensor, commands: torch.Tensor | None = None) -> None:
+        """Once o_t (N, D) is known: choose the gait of the robots that are due (``commands`` (N, 3): the
+        ``kinematic`` criterion reads v_y)."""
 
     def request_selection(self) -> None:
         """Make every robot due for a selection at the next observation (after networks were loaded)."""
@@ -358,6 +359,9 @@ class PredictiveGaitSelector(FixedGaitSelector):
         if cfg.criterion == "feasible":
             self.tracker = PowerPredictor(obs_dim, self.num_gaits, tuple(cfg.hidden_dims)).to(dev)
             self.tracker_optimizer = torch.optim.Adam(self.tracker.parameters(), lr=cfg.learning_rate)
+        self.stepless = torch.zeros(self.num_gaits, dtype=torch.bool, device=dev)
+        """Gaits without swing (``make_gait_selector`` sets it from the library): the ``kinematic`` criterion's
+        gaits that cannot move the trunk sideways."""
         self.candidates = torch.zeros(2, device=dev)
         """Candidate gaits offered and selections made since the last log (a tensor: no host sync per step)."""
         self.labeler = WindowLabeler(n, obs_dim, self.horizon, dev)
@@ -427,7 +431,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.due[:] = True
 
     @torch.no_grad()
-    def select(self, obs: torch.Tensor, active: torch.Tensor) -> None:
+    def select(self, obs: torch.Tensor, active: torch.Tensor, commands: torch.Tensor | None = None) -> None:
         active = active.long()
         self.prev_active = active.clone()  # resets restart robots in their requested gait
         self.used_temperature = self.temperature
@@ -442,9 +446,15 @@ class PredictiveGaitSelector(FixedGaitSelector):
             mean = power.mean(dim=1, keepdim=True).clamp(min=1.0)
             if self.cfg.power_normalization == "mean":
                 power, mean = power / mean, torch.ones_like(mean)
-            candidates = self.candidate_gaits(obs[ids])
             tau = self.temperature
-            if candidates is not None:
+            if self.cfg.criterion == "kinematic":
+                candidates = self.kinematic_candidates(commands[ids])
+            else:
+                candidates = self.candidate_gaits(obs[ids])
+            if candidates is not None and self.cfg.criterion == "kinematic":
+                self.candidates[0] += candidates.sum()
+                self.candidates[1] += len(ids)
+            elif candidates is not None:
                 self.candidates[0] += candidates.sum()
                 self.candidates[1] += len(ids)
                 if tau > 0.0:  # softened while training: the non-candidates' odds fall with tau (feasible_penalty)
@@ -469,6 +479,12 @@ class PredictiveGaitSelector(FixedGaitSelector):
             return None
         with torch.no_grad():
             return self.tracker(obs)
+
+    def kinematic_candidates(self, commands: torch.Tensor) -> torch.Tensor:
+        """(N, G) bool: the gaits the ``kinematic`` criterion offers for commands (N, 3): no gait without swing for
+        |v_y| above ``kinematic_lateral_limit`` (never empty: the library has a stepping gait, checked at build)."""
+        lateral = commands[:, 1].abs() > self.cfg.kinematic_lateral_limit
+        return ~(lateral[:, None] & self.stepless[None, :])
 
     def candidate_gaits(self, obs: torch.Tensor) -> torch.Tensor | None:
         """(N, G) bool: the gaits the ``feasible`` criterion offers for o_t; None (every gait) with the ``power``
@@ -606,5 +622,9 @@ def make_gait_selector(cfg, requested: torch.Tensor | None, gait_names: tuple[st
     if sel == "fixed":
         return FixedGaitSelector(requested, gait_names, start_gait, policy_dt)
     if sel == "predictive":
-        return PredictiveGaitSelector(requested, gait_names, start_gait, policy_dt, obs_dim, cfg.predictor, cfg.seed)
+        out = PredictiveGaitSelector(requested, gait_names, start_gait, policy_dt, obs_dim, cfg.predictor, cfg.seed)
+        out.stepless = torch.tensor([g.df_swing == 0.0 for g in cfg.gait.library], device=requested.device)
+        if cfg.predictor.criterion == "kinematic" and bool(out.stepless.all()):
+            raise ValueError("the kinematic criterion needs a gait with swing in gait.library")
+        return out
     raise ValueError(f"unknown gait.selection {sel!r}; choose none, fixed or predictive")
