@@ -104,15 +104,15 @@ def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50, upto:
 
 
 def archive(run: str, dest: str, every: int = 10) -> None:
-    """The committed record of a run: its configuration, its evaluation results (``eval*.json``, ``lateral*.json``)
-    and every ``every``-th row of ``metrics.jsonl`` (and the last)."""
+    """The committed record of a run: its configuration, its evaluation results (``eval*.json``, ``lateral*.json``,
+    ``energymap*.json``) and every ``every``-th row of ``metrics.jsonl`` (and the last)."""
     import shutil
 
     from wqwarp.rl.progress import read_metrics
 
     os.makedirs(dest, exist_ok=True)
     for name in sorted(os.listdir(run)):
-        if name == "config.json" or (name.endswith(".json") and name.startswith(("eval", "lateral"))):
+        if name == "config.json" or (name.endswith(".json") and name.startswith(("eval", "lateral", "energymap"))):
             shutil.copyfile(os.path.join(run, name), os.path.join(dest, name))
     rows = read_metrics(run)
     keep = [r for i, r in enumerate(rows) if (i + 1) % every == 0 or i + 1 == len(rows)]
