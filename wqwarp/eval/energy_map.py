@@ -30,8 +30,8 @@ import numpy as np
 import torch
 
 from wqwarp.eval.options import ProtocolOptions, option
-from wqwarp.eval.rollout import base_velocity, evaluation_session, start_rollout
-from wqwarp.rl.gait_selection import feasible_gaits
+from wqwarp.eval.rollout import evaluation_session, start_rollout
+from wqwarp.rl.gait_selection import feasible_gaits, tracking_error
 
 RANGES = {"vx": (-1.0, 1.0), "vy": (-0.7, 0.7), "wz": (-0.7, 0.7)}
 AXES = {"vx": 0, "vy": 1, "wz": 2}
@@ -80,7 +80,8 @@ def measure_forced_gaits(runner, commands: torch.Tensor, gaits: torch.Tensor, se
             obs, _, dones, _ = env.step(runner.policy(obs))
             fell |= dones.bool()
             if k >= steps // 2:
-                acc["err"] += ((base_velocity(env) - commands) ** 2).sum(1)
+                b = env.base_state()
+                acc["err"] += tracking_error(commands, b["lin_vel"], b["ang_vel"])
                 acc["p"] += env.tv["p_cost"]
                 acc["legs"] += env.tv["p_cost_legs"]
                 acc["wheels"] += env.tv["p_cost_wheels"]

@@ -337,7 +337,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
     name = "predictive"
 
     def __init__(self, requested: torch.Tensor, gait_names: tuple[str, ...], start_gait: int, policy_dt: float,
-                 obs_dim: int, cfg, seed: int = 0):  # fmt: skip
+                 obs_dim: int, cfg, seed: int = 0, stepless: tuple[bool, ...] | None = None):  # fmt: skip
         super().__init__(requested, gait_names, start_gait, policy_dt)
         self.cfg = cfg
         dev = requested.device
@@ -359,9 +359,11 @@ class PredictiveGaitSelector(FixedGaitSelector):
         if cfg.criterion == "feasible":
             self.tracker = PowerPredictor(obs_dim, self.num_gaits, tuple(cfg.hidden_dims)).to(dev)
             self.tracker_optimizer = torch.optim.Adam(self.tracker.parameters(), lr=cfg.learning_rate)
-        self.stepless = torch.zeros(self.num_gaits, dtype=torch.bool, device=dev)
-        """Gaits without swing (``make_gait_selector`` sets it from the library): the ``kinematic`` criterion's
+        self.stepless = torch.tensor(stepless or (False,) * self.num_gaits, dtype=torch.bool, device=dev)
+        """Gaits without swing (``make_gait_selector`` reads them from the library): the ``kinematic`` criterion's
         gaits that cannot move the trunk sideways."""
+        if cfg.criterion == "kinematic" and bool(self.stepless.all()):
+            raise ValueError("the kinematic criterion needs a gait with swing in gait.library")
         self.candidates = torch.zeros(2, device=dev)
         """Candidate gaits offered and selections made since the last log (a tensor: no host sync per step)."""
         self.labeler = WindowLabeler(n, obs_dim, self.horizon, dev)
@@ -442,23 +444,20 @@ class PredictiveGaitSelector(FixedGaitSelector):
             self.in_gait[ids] = 0
             self.due[ids] = False
         elif len(ids):
+            cfg, tau = self.cfg, self.temperature
             power = self.predictor(obs[ids])
-            mean = power.mean(dim=1, keepdim=True).clamp(min=1.0)
-            if self.cfg.power_normalization == "mean":
-                power, mean = power / mean, torch.ones_like(mean)
-            tau = self.temperature
-            if self.cfg.criterion == "kinematic":
+            unit = power.mean(dim=1, keepdim=True).clamp(min=1.0)  # the robot's mean predicted power
+            if cfg.power_normalization == "mean":
+                power, unit = power / unit, 1.0
+            if cfg.criterion == "kinematic":
                 candidates = self.kinematic_candidates(commands[ids])
             else:
                 candidates = self.candidate_gaits(obs[ids])
-            if candidates is not None and self.cfg.criterion == "kinematic":
+            if candidates is not None:
                 self.candidates[0] += candidates.sum()
                 self.candidates[1] += len(ids)
-            elif candidates is not None:
-                self.candidates[0] += candidates.sum()
-                self.candidates[1] += len(ids)
-                if tau > 0.0:  # softened while training: the non-candidates' odds fall with tau (feasible_penalty)
-                    power = power + self.cfg.feasible_penalty * mean * (~candidates).to(power.dtype)
+                if cfg.criterion == "feasible" and tau > 0.0:  # softened: odds x e^(-feasible_penalty / tau)
+                    power = power + cfg.feasible_penalty * unit * (~candidates).to(power.dtype)
                     candidates = None
             probs = gait_probabilities(power, tau, candidates)
             choice = torch.multinomial(probs, 1, generator=self.gen).flatten()
@@ -508,13 +507,14 @@ class PredictiveGaitSelector(FixedGaitSelector):
         """Add labelled windows directly (tests, offline data); ``e`` (tracking error) defaults to zeros."""
         self._store(obs, gait.long(), y, torch.zeros_like(y) if e is None else e)
 
-    def _update_normalization(self, p: PowerPredictor, y: torch.Tensor, min_std: float) -> None:
-        """Input and per-gait target normalisation of network ``p`` from the replay buffer's o_t and targets ``y``."""
+    def _update_normalization(self, p: PowerPredictor, y: torch.Tensor, min_std: float, obs_mean: torch.Tensor,
+                              obs_std: torch.Tensor) -> None:  # fmt: skip
+        """Input (given) and per-gait target normalisation of network ``p`` from the replay buffer's targets ``y``."""
         r = self.replay
         n = r.n
-        x, g, y = r.obs[:n], r.gait[:n], y[:n]
-        p.obs_mean.copy_(x.mean(0))
-        p.obs_std.copy_(x.std(0, unbiased=False).clamp(min=1e-3) if n > 1 else torch.ones_like(p.obs_std))
+        g, y = r.gait[:n], y[:n]
+        p.obs_mean.copy_(obs_mean)
+        p.obs_std.copy_(obs_std)
         for k in range(self.num_gaits):
             yk = y[g == k]
             if len(yk) >= 2:
@@ -529,9 +529,11 @@ class PredictiveGaitSelector(FixedGaitSelector):
             return {}
         cfg, p, t = self.cfg, self.predictor, self.tracker
         with torch.inference_mode(False), torch.enable_grad():
-            self._update_normalization(p, r.y, 0.1)
+            x = r.obs[: r.n]
+            stats = (x.mean(0), x.std(0, unbiased=False).clamp(min=1e-3) if r.n > 1 else torch.ones_like(x[0]))
+            self._update_normalization(p, r.y, 0.1, *stats)
             if t is not None:
-                self._update_normalization(t, r.e, 1e-3)
+                self._update_normalization(t, r.e, 1e-3, *stats)
             total = torch.zeros(2, device=r.y.device)
             for _ in range(cfg.updates_per_iteration):
                 idx = torch.randint(0, r.n, (min(cfg.batch_size, r.n),), generator=self.gen, device=r.y.device)
@@ -622,9 +624,7 @@ def make_gait_selector(cfg, requested: torch.Tensor | None, gait_names: tuple[st
     if sel == "fixed":
         return FixedGaitSelector(requested, gait_names, start_gait, policy_dt)
     if sel == "predictive":
-        out = PredictiveGaitSelector(requested, gait_names, start_gait, policy_dt, obs_dim, cfg.predictor, cfg.seed)
-        out.stepless = torch.tensor([g.df_swing == 0.0 for g in cfg.gait.library], device=requested.device)
-        if cfg.predictor.criterion == "kinematic" and bool(out.stepless.all()):
-            raise ValueError("the kinematic criterion needs a gait with swing in gait.library")
-        return out
+        stepless = tuple(g.df_swing == 0.0 for g in cfg.gait.library)
+        return PredictiveGaitSelector(requested, gait_names, start_gait, policy_dt, obs_dim, cfg.predictor, cfg.seed,
+                                      stepless)  # fmt: skip
     raise ValueError(f"unknown gait.selection {sel!r}; choose none, fixed or predictive")
