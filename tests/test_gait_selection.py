@@ -487,3 +487,36 @@ def test_a_forced_gait_overrides_the_selection_but_not_the_prediction():
     sel.select(torch.zeros(4, 2), torch.ones(4, dtype=torch.long))
     assert (sel.requested == 2).all()
     assert sel.predict(torch.zeros(1, 2)).argmin().item() == 0
+
+
+def test_mean_labels_come_from_robots_acting_with_the_mean_that_ppo_leaves_out(tmp_path):
+    """``label_source = mean``: every 4th robot acts with the actor's mean, only they open predictor windows, and
+    their transitions carry advantage 0 and return = value; the others sample and their advantages are normalised
+    among themselves."""
+    import contextlib
+    import io
+
+    from wqwarp.rl.config import TrainConfig
+    from wqwarp.rl.env import WheeledGo1Env
+    from wqwarp.rl.runner import WqRunner
+
+    cfg = make_preset("ours")
+    cfg.sim.num_envs = 8
+    cfg.predictor.label_source = "mean"
+    cfg.predictor.label_fraction = 0.25
+    env = WheeledGo1Env(cfg)
+    mask = env.gait_selector.label_robots
+    assert mask.tolist() == [True, False, False, False, True, False, False, False]
+    tcfg = TrainConfig(num_steps_per_env=60, max_iterations=1, save_interval=1)
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner = WqRunner(env, tcfg.rsl_rl_dict(), log_dir=str(tmp_path), device="cpu")
+        runner.learn(1)
+    st = runner.alg.storage
+    mean = st.distribution_params[0]
+    assert torch.equal(st.actions[:, mask], mean[:, mask])
+    assert (st.actions[:, ~mask] - mean[:, ~mask]).abs().mean() > 0.1  # sampled at the initial std
+    assert torch.all(st.advantages[:, mask] == 0) and torch.equal(st.returns[:, mask], st.values[:, mask])
+    kept = st.advantages[:, ~mask]
+    assert abs(float(kept.mean())) < 1e-5 and float(kept.std()) == pytest.approx(1.0, abs=1e-3)
+    sel = env.gait_selector
+    assert not sel.labeler.open[~mask].any() and sel.labeler.open[mask].any()

@@ -148,6 +148,11 @@ class WqPPO(PPO):
         """Losses of the last fits of the extensions."""
         self.iteration = 0
         """PPO iteration the coming rollout belongs to (the temperature schedule's position)."""
+        self.mean_actors: torch.Tensor | None = None
+        """(N,) bool: robots that act with the actor's mean while training, to label the power predictor with what
+        evaluation runs (``PredictorConfig.label_source = "mean"``; the gait selector's ``label_robots``). Their
+        transitions stay in the storage (the critic and the return of the others are unchanged) but carry
+        advantage 0 and return = value, so neither PPO loss learns from actions that were not sampled."""
 
     def set_group_std(self, stds: list[float]) -> None:
         """Set the actor's std per action group (one value per group, in ``action_groups`` order)."""
@@ -177,8 +182,39 @@ class WqPPO(PPO):
         return alg
 
     def attach(self, env: WheeledGo1Env) -> None:
-        """Take the env's estimator trainer and gait selector as the extensions (estimator first)."""
+        """Take the env's estimator trainer and gait selector as the extensions (estimator first), and the robots
+        that act with the mean (:attr:`mean_actors`)."""
         self.learners = [EstimatorLearner(env.estimator_trainer), GaitSelectorLearner(env.gait_selector)]
+        mask = env.gait_selector.label_robots
+        if mask is not None and self.normalize_advantage_per_mini_batch:
+            raise ValueError("predictor.label_source = mean needs normalize_advantage_per_mini_batch off (the "
+                             "mean-acting robots' zero advantages are taken out of the whole-rollout normalisation)")
+        self.mean_actors = None if mask is None else mask.to(self.device)
+
+    def act(self, obs: TensorDict) -> torch.Tensor:
+        """rsl-rl's sampled actions, except for :attr:`mean_actors`, which take the mean (with its log-probability:
+        the transition records what ran)."""
+        actions = super().act(obs)
+        if self.mean_actors is None:
+            return actions
+        t = self.transition
+        t.actions = torch.where(self.mean_actors[:, None], self.actor.output_mean.detach(), actions)
+        t.actions_log_prob = self.actor.get_output_log_prob(t.actions).detach()
+        return t.actions
+
+    def compute_returns(self, obs: TensorDict) -> None:
+        """rsl-rl's returns and advantages; the :attr:`mean_actors`' transitions get advantage 0 and return = value,
+        and the others' advantages are normalised among themselves."""
+        super().compute_returns(obs)
+        if self.mean_actors is None:
+            return
+        st, keep = self.storage, ~self.mean_actors
+        raw = st.returns - st.values
+        st.returns[:, ~keep] = st.values[:, ~keep]
+        adv = raw[:, keep]
+        adv = (adv - adv.mean()) / (adv.std() + 1e-8)
+        st.advantages = torch.zeros_like(raw)
+        st.advantages[:, keep] = adv
 
     def set_iteration(self, iteration: int) -> None:
         """Start (or resume) counting PPO iterations at ``iteration``."""

@@ -29,6 +29,8 @@ EvaluationSelection = Literal["argmin", "sample"]
 """Gait selection outside training (:attr:`PredictorConfig.evaluation_selection`)."""
 SelectionCriterion = Literal["power", "feasible", "kinematic"]
 """What the predictive selector ranks (:attr:`PredictorConfig.criterion`)."""
+LabelSource = Literal["policy", "mean"]
+"""Which actions the predictor's labelled windows come from (:attr:`PredictorConfig.label_source`)."""
 PhaseResidualMode = Literal["offset", "increment"]
 """How the phase residual enters the gait phase (:attr:`ActionConfig.phase_residual_mode`)."""
 TEMPERATURE_SHAPES: tuple[str, ...] = typing.get_args(TemperatureShape)
@@ -201,7 +203,21 @@ class PredictorConfig(CheckedConfig):
     made the selection an argmin of the predicted error (1.0-1.1 candidates per selection) and sent 90-100 % of the
     lateral commands to driving by iteration 600. The argmin (evaluation) never picks a non-candidate."""
 
+    label_source: LabelSource = "policy"
+    """Which robots' windows label the predictor: ``policy`` (default, the paper's) every robot's, acting with the
+    training policy's sampled actions; ``mean`` (beyond the paper) only the ``label_fraction`` of robots that act
+    with the policy's mean action (what evaluation and deployment run), whose transitions PPO then leaves out of
+    the policy loss (advantage 0, return = value: the mean is not a sample of the distribution). Measured
+    (docs/studies/omnidirectional): with ``policy`` the predictor overestimates the legged gaits 2-3x against
+    evaluation (the exploration noise costs power in the leg joints) and predicts driving in every turning cell
+    where walking is cheaper."""
+    label_fraction: float = 0.125
+    """Share of robots that act with the mean action and label the predictor with ``label_source = mean`` (every
+    round(1 / fraction)-th robot; at most 0.5: the others' samples train the policy)."""
+
     def check(self) -> None:
+        require(0.0 < self.label_fraction <= 0.5, "PredictorConfig.label_fraction",
+                f"must be in (0, 0.5] (the rest of the robots train the policy), got {self.label_fraction}")  # fmt: skip
         check_positive(self, "horizon_s", "decision_interval_s", "temperature_start", "temperature_end",
                        "learning_rate", "batch_size", "buffer_size")  # fmt: skip
         check_positive(self, "temperature_iterations", "updates_per_iteration", "feasible_margin",
@@ -465,6 +481,8 @@ MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("predictor.feasible_margin", 0.02, "its default (unused with the power criterion)"),
     ("predictor.feasible_penalty", 2.0, "its default (unused with the power criterion)"),
     ("predictor.kinematic_lateral_limit", 0.1, "its default (unused with the power criterion)"),
+    ("predictor.label_source", "policy", "every robot's sampled actions, the only labels before the setting existed"),
+    ("predictor.label_fraction", 0.125, "its default (unused with policy labels)"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
 checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""

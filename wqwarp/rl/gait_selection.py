@@ -162,8 +162,12 @@ class WindowLabeler:
         self.dropped = torch.zeros((), dtype=torch.long, device=device)
         """Windows dropped since construction (reset or gait switch inside; a tensor: no host sync per step)."""
 
-    def start(self, obs: torch.Tensor, active: torch.Tensor, requested: torch.Tensor) -> None:
+    def start(self, obs: torch.Tensor, active: torch.Tensor, requested: torch.Tensor,
+              allowed: torch.Tensor | None = None) -> None:  # fmt: skip
+        """Open windows at o_t; ``allowed`` (N,) bool restricts them to those robots (None: every robot)."""
         new = ~self.open & (active == requested)
+        if allowed is not None:
+            new &= allowed
         self.obs[new] = obs[new]
         self.gait[new] = active[new]
         self.sum[new] = 0.0
@@ -220,6 +224,10 @@ class GaitSelector:
     num_gaits = 0
     gen: torch.Generator | None = None
     """The selector's own random stream (the predictive selector's softmax sampling); None when it draws nothing."""
+    label_robots: torch.Tensor | None = None
+    """(N,) bool: the robots that act with the policy's mean action while training and alone label the predictor
+    (``PredictorConfig.label_source = "mean"``; ``wqwarp.rl.algorithm.WqPPO`` reads it); None: every robot samples
+    its actions (and labels, where there is a predictor)."""
 
     def record_step(self, p_cost, error, active, commands, reset, died) -> None:
         """After the physics of a policy step (before resets): p_cost (N,) [W], squared tracking error (N,)
@@ -367,6 +375,9 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.candidates = torch.zeros(2, device=dev)
         """Candidate gaits offered and selections made since the last log (a tensor: no host sync per step)."""
         self.labeler = WindowLabeler(n, obs_dim, self.horizon, dev)
+        if cfg.label_source == "mean":
+            every = max(1, int(round(1.0 / cfg.label_fraction)))
+            self.label_robots = torch.arange(n, device=dev) % every == 0
         self.gen = torch.Generator(device=dev)
         self.gen.manual_seed(seed + 7919)
         self.in_gait = torch.zeros(n, dtype=torch.long, device=dev)
@@ -465,7 +476,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
             self.in_gait[ids] = 0
             self.due[ids] = False
         if self.training:
-            self.labeler.start(obs, active, self.requested.long())
+            self.labeler.start(obs, active, self.requested.long(), self.label_robots)
 
     def predict(self, obs: torch.Tensor) -> torch.Tensor:
         """Predicted mean p_cost of each gait over the horizon (N, G) [W]."""
