@@ -520,3 +520,5 @@ def test_mean_labels_come_from_robots_acting_with_the_mean_that_ppo_leaves_out(t
     assert abs(float(kept.mean())) < 1e-5 and float(kept.std()) == pytest.approx(1.0, abs=1e-3)
     sel = env.gait_selector
     assert not sel.labeler.open[~mask].any() and sel.labeler.open[mask].any()
+    m = runner.logger.metrics  # exploration's cost is logged: the noise-free robots draw less power
+    assert 0.0 < m["Metrics/p_cost_mean_actors"] < m["Metrics/p_cost_sampled"]

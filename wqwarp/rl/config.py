@@ -217,7 +217,7 @@ class PredictorConfig(CheckedConfig):
 
     def check(self) -> None:
         require(0.0 < self.label_fraction <= 0.5, "PredictorConfig.label_fraction",
-                f"must be in (0, 0.5] (the rest of the robots train the policy), got {self.label_fraction}")  # fmt: skip
+                f"must be in (0, 0.5] (the other robots train the policy), got {self.label_fraction}")  # fmt: skip
         check_positive(self, "horizon_s", "decision_interval_s", "temperature_start", "temperature_end",
                        "learning_rate", "batch_size", "buffer_size")  # fmt: skip
         check_positive(self, "temperature_iterations", "updates_per_iteration", "feasible_margin",

@@ -315,6 +315,11 @@ class WheeledGo1Env(VecEnv):
         for k in ("p_cost", "p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs",
                   "p_joule_wheels"):  # fmt: skip
             out[f"Metrics/{k}"] = mean(self.tv[k])
+        label = self.gait_selector.label_robots
+        if label is not None:  # what exploration costs: the same selection, with and without the action noise
+            for name, part in (("mean_actors", label), ("sampled", ~label)):
+                ok = valid & part
+                out[f"Metrics/p_cost_{name}"] = torch.where(ok, self.tv["p_cost"], 0.0).sum() / ok.sum().clamp(min=1)
         mag = self.actions.abs()
         for name, cols in self.action_groups.items():  # mean |a| per action group, raw (before scales)
             out[f"Actions/{name}_abs"] = mean(mag[:, cols].mean(1))
