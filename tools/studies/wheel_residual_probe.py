@@ -8,7 +8,8 @@ Usage::
 
 Per wheel (FR, FL, RR, RL): mean velocity [rad/s], target [rad/s], torque [N m] and the policy's wheel action; per
 joint group: mean p_cost, mechanical and Joule power [W]; the base velocity achieved [m/s] and the share of each
-running gait. A front pair driving (positive torque) while the rear pair brakes (negative torque) at the same
+running gait; each reward term per second (w_k r_k, the policy's own objective: does it pay the policy to keep its
+wheel residuals?). A front pair driving (positive torque) while the rear pair brakes (negative torque) at the same
 forward speed is power spent on wheel slip: the robot pays it and gains no speed. Nothing learns.
 """
 
@@ -33,6 +34,7 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
     keys = ("p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs", "p_joule_wheels")
     acc: dict = {k: [] for k in (*keys, "wheel_qd", "wheel_target", "wheel_torque", "wheel_action", "vx")}
     usage = torch.zeros(env.num_gaits)
+    terms = torch.zeros(len(env.reward_names))
     fell = torch.zeros(n, dtype=torch.bool)
     with torch.no_grad():
         for k in range(int(round(seconds / env.dt))):
@@ -51,7 +53,11 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
             acc["wheel_action"].append(a[:, 16:20].mean(0).tolist())
             acc["vx"].append(float(env.base_state()["lin_vel"][:, 0].mean()))
             usage += torch.bincount(env.active_gait().cpu(), minlength=env.num_gaits).float()
+            terms += wp.to_torch(env.reward_terms_wp).mean(0).cpu()
     out = {k: np.round(np.mean(np.asarray(v), axis=0), 4).tolist() for k, v in acc.items()}
+    per_s = terms / max(1, len(acc["vx"])) / env.dt  # w_k r_k dt per step -> per second
+    out["reward_per_s"] = {name: round(float(per_s[k]), 4) for k, name in enumerate(env.reward_names)}
+    out["reward_per_s"]["total"] = round(float(per_s.sum()), 4)
     out["gait_usage"] = {g: float(usage[i] / usage.sum()) for i, g in enumerate(env.gait_names)}
     out["fell"] = int(fell.sum())
     out["p_cost"] = out["p_cost_legs"] + out["p_cost_wheels"]
@@ -93,6 +99,9 @@ def main(argv=None) -> int:
         print(f"{name:>21}: v_x {r['vx']:.3f} m/s | p_cost {r['p_cost']:6.1f} W (legs {r['p_cost_legs']:5.1f}, "
               f"wheels {r['p_cost_wheels']:5.1f}; wheels mech {r['p_mech_wheels']:5.1f}, Joule "
               f"{r['p_joule_wheels']:5.1f}) | wheel qd {r['wheel_qd']} | torque {r['wheel_torque']}")  # fmt: skip
+    rp, rz = res["policy"]["reward_per_s"], res["zero_wheel_residuals"]["reward_per_s"]
+    print("reward per second, policy -> zero wheel residuals: "
+          + ", ".join(f"{k} {rp[k]:+.3f} -> {rz[k]:+.3f}" for k in rp if rp[k] or rz[k]))  # fmt: skip
     out = {"checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration, "vx": args.vx,
            "robots": args.robots, "seconds": args.seconds, "settle": 2.0, "wheel_order": ["FR", "FL", "RR", "RL"],
            "results": res}  # fmt: skip
