@@ -65,6 +65,7 @@ def main(argv=None) -> int:
         torch.set_num_threads(args.threads)
     cfg = make_preset("ours")
     cfg.seed = args.seed
+    cfg.sim.num_envs = 128  # the main job's default (EnvConfig's own is 64)
     cfg.gait.lateral_gain = 0.35
     cfg.predictor.criterion = "kinematic"
     cfg.predictor.label_source = "mean"
@@ -77,7 +78,9 @@ def main(argv=None) -> int:
     train_cfg["algorithm"]["class_name"] = f"{KeptMeanActorsPPO.__module__}:KeptMeanActorsPPO"
     os.makedirs(args.log_dir)
     record = {"command": " ".join(sys.argv), "study": "mean_actor_control", "seed": args.seed,
-              "algorithm": "KeptMeanActorsPPO", "env": to_dict(cfg), "train": to_dict(tcfg)}  # fmt: skip
+              "algorithm": "KeptMeanActorsPPO", "env": to_dict(cfg), "train": to_dict(tcfg),
+              "args": {"preset": "ours", "num_envs": cfg.sim.num_envs, "num_steps_per_env": tcfg.num_steps_per_env,
+                       "seed": args.seed, "max_iterations": args.iterations}}  # fmt: skip
     write_text_atomic(os.path.join(args.log_dir, "config.json"), json.dumps(record, indent=2))
     with contextlib.redirect_stdout(io.StringIO()):
         runner = WqRunner(env, train_cfg, log_dir=args.log_dir, device=env.device)
