@@ -208,13 +208,11 @@ class WqPPO(PPO):
         super().compute_returns(obs)
         if self.mean_actors is None:
             return
-        st, keep = self.storage, ~self.mean_actors
-        raw = st.returns - st.values
-        st.returns[:, ~keep] = st.values[:, ~keep]
-        adv = raw[:, keep]
-        adv = (adv - adv.mean()) / (adv.std() + 1e-8)
-        st.advantages = torch.zeros_like(raw)
-        st.advantages[:, keep] = adv
+        st, mean, keep = self.storage, self.mean_actors, ~self.mean_actors
+        adv = (st.returns - st.values)[:, keep]  # rsl-rl's normalisation counted the mean actors: redone without
+        st.advantages = torch.zeros_like(st.values)
+        st.advantages[:, keep] = (adv - adv.mean()) / (adv.std() + 1e-8)
+        st.returns[:, mean] = st.values[:, mean]
 
     def set_iteration(self, iteration: int) -> None:
         """Start (or resume) counting PPO iterations at ``iteration``."""

@@ -308,7 +308,12 @@ class WheeledGo1Env(VecEnv):
     def _step_metrics(self, b: dict, valid: torch.Tensor) -> dict:
         """Means over the robots whose step is ``valid`` (not diverged)."""
         count = valid.float().sum().clamp(min=1.0)
-        mean = lambda x: torch.where(valid, x, torch.zeros_like(x)).sum() / count  # noqa: E731
+
+        def mean(x: torch.Tensor, over: torch.Tensor | None = None) -> torch.Tensor:
+            """Mean of x over the valid robots, or over the robots ``over`` (a subset of them)."""
+            n = count if over is None else over.float().sum().clamp(min=1.0)
+            return torch.where(valid if over is None else over, x, torch.zeros_like(x)).sum() / n
+
         err = torch.abs(b["lin_vel"][:, :2] - self.commands[:, :2])
         werr = torch.abs(b["ang_vel"][:, 2] - self.commands[:, 2])
         out = {"Metrics/vx_error": mean(err[:, 0]), "Metrics/vy_error": mean(err[:, 1]), "Metrics/wz_error": mean(werr)}
@@ -318,8 +323,7 @@ class WheeledGo1Env(VecEnv):
         label = self.gait_selector.label_robots
         if label is not None:  # what exploration costs: the same selection, with and without the action noise
             for name, part in (("mean_actors", label), ("sampled", ~label)):
-                ok = valid & part
-                out[f"Metrics/p_cost_{name}"] = torch.where(ok, self.tv["p_cost"], 0.0).sum() / ok.sum().clamp(min=1)
+                out[f"Metrics/p_cost_{name}"] = mean(self.tv["p_cost"], valid & part)
         mag = self.actions.abs()
         for name, cols in self.action_groups.items():  # mean |a| per action group, raw (before scales)
             out[f"Actions/{name}_abs"] = mean(mag[:, cols].mean(1))
