@@ -237,3 +237,15 @@ def test_gaits_tuned_on_the_differentiable_path_reach_the_resolved_config(tmp_pa
                        text=True, cwd=root, timeout=120)  # fmt: skip
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--env.gait.tuned" in r.stderr, r.stderr
     assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize(("name", "match"), [
+    ("WqPPO", "must be 'module:Class'"),
+    ("wqwarp.rl.algorithm:Nope", "does not import"),
+    ("rsl_rl.algorithms:PPO", "must name WqPPO or a subclass"),
+])  # fmt: skip
+def test_the_algorithm_class_must_name_an_importable_wqppo(name, match):
+    with pytest.raises(ValueError, match=rf"^TrainConfig.algorithm_class .*{match}"):
+        resolve_config(_parse("--train.algorithm-class", name))
+    _, train = resolve_config(_parse("--train.algorithm-class", "wqwarp.rl.algorithm:KeptMeanActorsPPO"))
+    assert train.rsl_rl_dict()["algorithm"]["class_name"] == "wqwarp.rl.algorithm:KeptMeanActorsPPO"

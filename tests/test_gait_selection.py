@@ -492,7 +492,7 @@ def test_a_forced_gait_overrides_the_selection_but_not_the_prediction():
 def test_mean_labels_come_from_robots_acting_with_the_mean_that_ppo_leaves_out(tmp_path):
     """``label_source = mean``: every 4th robot acts with the actor's mean, only they open predictor windows, and
     their transitions carry advantage 0 and return = value; the others sample and their advantages are normalised
-    among themselves."""
+    among themselves; the control class keeps them in PPO with rsl-rl's advantages."""
     import contextlib
     import io
 
@@ -522,3 +522,12 @@ def test_mean_labels_come_from_robots_acting_with_the_mean_that_ppo_leaves_out(t
     assert not sel.labeler.open[~mask].any() and sel.labeler.open[mask].any()
     m = runner.logger.metrics  # exploration's cost is logged: the noise-free robots draw less power
     assert 0.0 < m["Metrics/p_cost_mean_actors"] < m["Metrics/p_cost_sampled"]
+    # the control (--train.algorithm-class wqwarp.rl.algorithm:KeptMeanActorsPPO): same mean actors, kept in PPO
+    tcfg.algorithm_class = "wqwarp.rl.algorithm:KeptMeanActorsPPO"
+    with contextlib.redirect_stdout(io.StringIO()):
+        control = WqRunner(env, tcfg.rsl_rl_dict(), log_dir=str(tmp_path / "control"), device="cpu")
+        control.learn(1)
+    st = control.alg.storage
+    assert torch.equal(st.actions[:, mask], st.distribution_params[0][:, mask])
+    assert float(st.advantages[:, mask].abs().mean()) > 0.1
+    assert abs(float(st.advantages.mean())) < 1e-5 and float(st.advantages.std()) == pytest.approx(1.0, abs=1e-3)

@@ -190,8 +190,7 @@ def bench(n: int, args, threads: dict) -> dict:
     cfg.seed = args.seed
     torch.manual_seed(args.seed)
     env = WheeledGo1Env(cfg)
-    train_cfg = TrainConfig(num_steps_per_env=args.steps_per_env).rsl_rl_dict()
-    train_cfg["algorithm"]["class_name"] = f"{__name__}:TimedPPO"
+    train_cfg = TrainConfig(num_steps_per_env=args.steps_per_env, algorithm_class=f"{__name__}:TimedPPO").rsl_rl_dict()
     with contextlib.redirect_stdout(io.StringIO()):
         runner = WqRunner(env, train_cfg, log_dir=None, device=env.device)
     runner.alg.update_threads = threads["update"]

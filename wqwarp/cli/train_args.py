@@ -24,7 +24,7 @@ from wqwarp.cli.config_args import (
     option_name,
     value_at,
 )
-from wqwarp.rl.config import EnvConfig, GaitConfig, TrainConfig
+from wqwarp.rl.config import EnvConfig, GaitConfig, TrainConfig, resolve_algorithm_class
 from wqwarp.rl.presets import PRESETS, make_preset, preset_help
 from wqwarp.rl.rewards import REWARD_TERMS
 
@@ -196,6 +196,8 @@ def resolve_config(args: argparse.Namespace) -> tuple[EnvConfig, TrainConfig]:
         env.gait = tuned_gait_config(env.gait, path)
     env.validate()
     train.validate()
+    if train.algorithm_class != TrainConfig.algorithm_class:  # the default needs no import here
+        resolve_algorithm_class(train.algorithm_class)
     for a in ALIASES:
         setattr(args, a.flag[2:].replace("-", "_"), value_at(roots, a.path))
     args.temperature = [env.predictor.temperature_start, env.predictor.temperature_end]

@@ -271,3 +271,14 @@ class WqPPO(PPO):
             if load_cfg.get(learner.key):
                 learner.load_state_dict(saved, strict, bool(load_cfg.get("rng")))
         return load_iteration
+
+
+class KeptMeanActorsPPO(WqPPO):
+    """The control of ``--env.predictor.label-source mean`` (``--train.algorithm-class
+    wqwarp.rl.algorithm:KeptMeanActorsPPO``): the mean-acting robots still act with the mean and alone label the
+    predictor, but their transitions train PPO like the others' (rsl-rl's returns and advantages for every robot).
+    Biased, since a mean is not a sample of the Gaussian: a diagnostic that separates the option's labels from its
+    exclusion of those robots (docs/studies/omnidirectional), not a training choice."""
+
+    def compute_returns(self, obs: TensorDict) -> None:
+        PPO.compute_returns(self, obs)

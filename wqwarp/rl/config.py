@@ -360,6 +360,25 @@ class EnvConfig(CheckedConfig):
                 "needs a nominal gait (gait.selection != 'none')")  # fmt: skip
 
 
+def resolve_algorithm_class(name: str) -> type:
+    """The class ``"module:Class"`` names (imported: torch and rsl-rl come with it); ValueError naming
+    ``TrainConfig.algorithm_class`` unless it is WqPPO or a subclass of it."""
+    import importlib
+
+    owner = "TrainConfig.algorithm_class"
+    module, _, attr = name.partition(":")
+    try:
+        cls = importlib.import_module(module)
+        for part in attr.split("."):
+            cls = getattr(cls, part)
+    except (ImportError, AttributeError) as e:
+        raise ValueError(f"{owner} {name!r} does not import: {e}") from None
+    from wqwarp.rl.algorithm import WqPPO
+
+    require(isinstance(cls, type) and issubclass(cls, WqPPO), owner, f"must name WqPPO or a subclass, got {name!r}")
+    return cls
+
+
 @dataclass
 class TrainConfig(CheckedConfig):
     """rsl-rl PPO settings (legged_gym defaults unless noted)."""
@@ -391,8 +410,14 @@ class TrainConfig(CheckedConfig):
     lam: float = 0.95
     desired_kl: float = 0.01
     clip_param: float = 0.2
+    algorithm_class: str = "wqwarp.rl.algorithm:WqPPO"
+    """The PPO class rsl-rl's runner builds (``"module:Class"``, importable): :class:`wqwarp.rl.algorithm.WqPPO` or a
+    subclass, e.g. ``wqwarp.rl.algorithm:KeptMeanActorsPPO``, the control of ``--env.predictor.label-source mean``."""
 
     def check(self) -> None:
+        module, sep, attr = self.algorithm_class.partition(":")
+        require(bool(sep and module and attr), "TrainConfig.algorithm_class",
+                f"must be 'module:Class', got {self.algorithm_class!r}")  # fmt: skip
         check_positive(self, "num_steps_per_env", "max_iterations", "save_interval", "num_learning_epochs",
                        "num_mini_batches", "learning_rate", "init_noise_std")  # fmt: skip
         check_positive(self, "mirror_loss_coeff", strict=False)
@@ -420,7 +445,7 @@ class TrainConfig(CheckedConfig):
                       "obs_normalization": True, "distribution_cfg": dist},
             "critic": {"class_name": "MLPModel", "hidden_dims": list(self.critic_hidden_dims), "activation": "elu",
                        "obs_normalization": True},
-            "algorithm": {"class_name": "wqwarp.rl.algorithm:WqPPO", "learning_rate": self.learning_rate,
+            "algorithm": {"class_name": self.algorithm_class, "learning_rate": self.learning_rate,
                           "num_learning_epochs": self.num_learning_epochs, "num_mini_batches": self.num_mini_batches,
                           "clip_param": self.clip_param, "gamma": self.gamma, "lam": self.lam,
                           "entropy_coef": self.entropy_coef, "desired_kl": self.desired_kl, "schedule": "adaptive",
