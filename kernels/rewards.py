@@ -39,6 +39,8 @@ class RewardInputs:
     """(N,) sum_j tau_j^2, averaged over the physics substeps of the step [N^2 m^2] (``wqwarp.kernels.power``)."""
     power_sq: wp.array(dtype=wp.float32)
     """(N,) sum_j (tau_j qd_j)^2, substep average [W^2]."""
+    p_cost: wp.array(dtype=wp.float32)
+    """(N,) sum_j |tau_j| |qd_j|, substep average [W] (``wqwarp.kernels.power``)."""
     body_collision: wp.array2d(dtype=wp.int32)
     """(N, 9) 1 for each trunk / thigh / calf body touching the ground."""
     sigma: float
@@ -144,6 +146,12 @@ def collision(inp: RewardInputs, i: int, v: wp.vec3, w: wp.vec3, g: wp.vec3) -> 
 def energy(inp: RewardInputs, i: int, v: wp.vec3, w: wp.vec3, g: wp.vec3) -> float:
     """||tau * qd||^2 [W^2]: squared norm of the joint powers, substep average."""
     return inp.power_sq[i]
+
+
+@wp.func
+def p_cost(inp: RewardInputs, i: int, v: wp.vec3, w: wp.vec3, g: wp.vec3) -> float:
+    """sum_j |tau_j| |qd_j| [W]: the paper's power cost, substep average (beyond Table II)."""
+    return inp.p_cost[i]
 
 
 _KERNELS: dict[tuple[wp.Function, ...], wp.Kernel] = {}

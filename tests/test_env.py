@@ -54,6 +54,15 @@ def test_power_is_logged_per_joint_group_and_the_energy_terms_read_the_substep_a
     k = REWARD_TERMS.index("energy")
     expected = -1e-5 * env.tv["power_sq"] * env.dt
     torch.testing.assert_close(terms[:, k], expected, rtol=1e-4, atol=1e-7)
+    # the power-cost term (beyond Table II, weight 0 by default) reads the same substep-averaged p_cost, in W
+    weights, k = wp.to_torch(env.reward_weights), REWARD_TERMS.index("p_cost")
+    assert float(weights[k]) == 0.0 and float(terms[:, k].abs().max()) == 0.0
+    weights[k] = -0.02
+    try:
+        env.step(a)
+        torch.testing.assert_close(terms[:, k], -0.02 * env.tv["p_cost"] * env.dt, rtol=1e-4, atol=1e-7)
+    finally:
+        weights[k] = 0.0
 
 
 def test_observation_decodes_into_named_parts(env):

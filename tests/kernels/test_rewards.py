@@ -10,7 +10,7 @@ import warp as wp
 
 from wqwarp.kernels.rewards import RewardInputs, make_reward_kernel
 from wqwarp.rl.config import REWARD_TERMS, RewardConfig
-from wqwarp.rl.rewards import TABLE_II, RewardTerm, check_terms
+from wqwarp.rl.rewards import BEYOND_PAPER, TABLE_II, TERMS, RewardTerm, check_terms
 
 BASE = {"v": "base_lin_vel", "w": "base_ang_vel", "g": "projected_gravity"}
 """The references' names of the base-frame inputs -> the RewardInputs fields."""
@@ -19,7 +19,7 @@ BASE = {"v": "base_lin_vel", "w": "base_ang_vel", "g": "projected_gravity"}
 def _inputs(device, x: dict) -> RewardInputs:
     inp = RewardInputs()
     for f in ("v", "w", "g", "command", "action", "prev_action", "prev2_action", "actuated_qd", "prev_actuated_qd",
-              "torque_sq", "power_sq"):  # fmt: skip
+              "torque_sq", "power_sq", "p_cost"):  # fmt: skip
         setattr(inp, BASE.get(f, f), wp.array(np.asarray(x[f], np.float32), dtype=wp.float32, device=device))
     inp.body_collision = wp.array(x["body_collision"].astype(np.int32), dtype=wp.int32, device=device)
     inp.sigma, inp.dt = x["sigma"], x["dt"]
@@ -41,7 +41,8 @@ def _random_inputs(n: int = 5, seed: int = 0) -> dict:
     return {"v": rng.normal(size=(n, 3)), "w": rng.normal(size=(n, 3)), "g": g, "command": rng.uniform(-1, 1, (n, 3)),
             "action": a, "prev_action": a1, "prev2_action": a2, "actuated_qd": rng.normal(size=(n, 16)) * 5,
             "prev_actuated_qd": rng.normal(size=(n, 16)) * 5, "torque_sq": (tau**2).sum(2).mean(0),
-            "power_sq": ((tau * qd_sub) ** 2).sum(2).mean(0), "body_collision": rng.integers(0, 2, (n, 9)),
+            "power_sq": ((tau * qd_sub) ** 2).sum(2).mean(0), "p_cost": np.abs(tau * qd_sub).sum(2).mean(0),
+            "body_collision": rng.integers(0, 2, (n, 9)),
             "sigma": 4.0, "dt": 0.02}  # fmt: skip
 
 
@@ -58,19 +59,20 @@ def _launch(device, terms, x, weights, times: int = 1):
 
 
 def test_registry_derives_the_config_fields_and_every_term_has_a_formula_and_a_reference():
-    assert REWARD_TERMS == tuple(t.name for t in TABLE_II) and len(REWARD_TERMS) == 12
+    assert REWARD_TERMS == tuple(t.name for t in TERMS) and len(TABLE_II) == 12
+    assert all(t.weight == 0.0 for t in BEYOND_PAPER)  # every preset keeps the paper's reward
     fields = {f.name: f for f in dataclasses.fields(RewardConfig)}
     assert list(fields) == [*REWARD_TERMS, "tracking_sigma", "only_positive"]
-    for t in TABLE_II:
+    for t in TERMS:
         assert fields[t.name].default == t.weight and fields[t.name].metadata["doc"] == t.doc
         assert t.reference is not None and t.doc
         assert t.resolve().__doc__.split(":")[0].strip(), t.name  # the func's docstring starts with its formula
-    assert RewardConfig().weights() == [t.weight for t in TABLE_II]
+    assert RewardConfig().weights() == [t.weight for t in TERMS]
     with pytest.raises(ValueError, match="twice"):
         check_terms((*TABLE_II, RewardTerm("energy", 1.0, "again")))
 
 
-@pytest.mark.parametrize("term", TABLE_II, ids=lambda t: t.name)
+@pytest.mark.parametrize("term", TERMS, ids=lambda t: t.name)
 def test_each_term_matches_its_numpy_reference(device, term):
     x = _random_inputs()
     _, got, _ = _launch(device, (term,), {**x, "dt": 0.02}, [1.0])
@@ -81,9 +83,9 @@ def test_each_term_matches_its_numpy_reference(device, term):
 def test_reward_terms_match_numpy(device):
     x = _random_inputs()
     weights = np.asarray(RewardConfig().weights())
-    reward, term, ep = _launch(device, TABLE_II, x, weights, times=2)
+    reward, term, ep = _launch(device, TERMS, x, weights, times=2)
     ref = _f32(x)
-    expected = np.stack([t.reference(ref) for t in TABLE_II], 1) * weights * x["dt"]
+    expected = np.stack([t.reference(ref) for t in TERMS], 1) * weights * x["dt"]
     np.testing.assert_allclose(term, expected, rtol=2e-4, atol=1e-6)
     np.testing.assert_allclose(reward, expected.sum(1), rtol=2e-4, atol=1e-5)
     np.testing.assert_allclose(ep, 2 * expected, rtol=2e-4, atol=1e-6)
@@ -101,12 +103,14 @@ def test_hand_values_and_zero_weights(device):
     coll[0, [0, 3]] = 1  # two bodies on the ground
     weights = np.asarray(RewardConfig().weights())
     weights[REWARD_TERMS.index("torques")] = 0.0
+    weights[REWARD_TERMS.index("p_cost")] = -0.02
     dt = 0.02
     x = {"v": np.array([[0.5, 0.0, 0.0]]), "w": np.array([[0.0, 0.0, 0.2]]), "g": g,
          "command": np.array([[0.5, 0.0, 0.2]]), "action": a, "prev_action": z20,
          "prev2_action": z20, "actuated_qd": qd, "prev_actuated_qd": z16, "torque_sq": np.array([16 * 49.0]),
-         "power_sq": np.array([100.0]), "body_collision": coll, "sigma": 4.0, "dt": dt}  # fmt: skip
-    _, term, _ = _launch(device, TABLE_II, x, weights)
+         "power_sq": np.array([100.0]), "p_cost": np.array([25.0]), "body_collision": coll, "sigma": 4.0,
+         "dt": dt}  # fmt: skip
+    _, term, _ = _launch(device, TERMS, x, weights)
     t = dict(zip(REWARD_TERMS, term[0], strict=True))
     assert t["track_vx"] == pytest.approx(2.0 * dt) and t["track_wz"] == pytest.approx(3.0 * dt)
     assert t["track_vy"] == pytest.approx(2.0 * dt)
@@ -116,8 +120,9 @@ def test_hand_values_and_zero_weights(device):
     assert t["collision"] == pytest.approx(-2.0 * 2 * dt)
     assert t["torques"] == 0.0  # zero weight: not evaluated
     assert t["energy"] == pytest.approx(-1e-5 * 100.0 * dt)  # reads the substep-averaged sum (tau qd)^2
+    assert t["p_cost"] == pytest.approx(-0.02 * 25.0 * dt)  # the substep-averaged sum |tau| |qd|, in W
     assert t["orientation"] == 0.0 and t["lin_vel_z"] == 0.0 and t["ang_vel_xy"] == 0.0
     # Rolled 90 deg: gravity lies along the base y axis, ||g_xy||^2 = 1.
     x["g"] = np.array([[0.0, -1.0, 0.0]])
-    _, term, _ = _launch(device, TABLE_II, x, weights)
+    _, term, _ = _launch(device, TERMS, x, weights)
     assert term[0, REWARD_TERMS.index("orientation")] == pytest.approx(-2.0 * dt, rel=1e-5)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from wqwarp.control.gaits import TABLE_I, Gait, load_tuned_gait, with_gait
-from wqwarp.rl.rewards import REWARD_TERMS, TABLE_II, RewardTerm  # noqa: F401  (REWARD_TERMS: re-exported)
+from wqwarp.rl.rewards import REWARD_TERMS, TERMS, RewardTerm  # noqa: F401  (REWARD_TERMS: re-exported)
 from wqwarp.sim.config import SimConfig
 from wqwarp.utils.checked_config import CheckedConfig, check_positive, check_ranges, require
 
@@ -38,7 +38,7 @@ Symmetry = Literal["none", "augmentation", "mirror_loss", "both"]
 """Use of the left-right mirror in PPO (:attr:`TrainConfig.symmetry`, rsl-rl's ``symmetry_cfg``)."""
 
 
-def _reward_weights(self, terms: tuple[RewardTerm, ...] = TABLE_II) -> list[float]:
+def _reward_weights(self, terms: tuple[RewardTerm, ...] = TERMS) -> list[float]:
     """w_k of each of ``terms`` in order: the field of that name, or the term's default weight for a term defined
     outside the package (not a field)."""
     return [float(getattr(self, t.name, t.weight)) for t in terms]
@@ -46,7 +46,7 @@ def _reward_weights(self, terms: tuple[RewardTerm, ...] = TABLE_II) -> list[floa
 
 RewardConfig = dataclasses.make_dataclass(
     "RewardConfig",
-    [(t.name, float, field(default=t.weight, metadata={"doc": t.doc})) for t in TABLE_II]
+    [(t.name, float, field(default=t.weight, metadata={"doc": t.doc})) for t in TERMS]
     + [("tracking_sigma", float, field(default=4.0, metadata={"doc": "The 4 in exp(-4 err^2) [1/(m/s)^2]."})),
        ("only_positive", bool, field(default=False, metadata={"doc": (
            "Clip each step's summed reward at zero (legged_gym's only_positive_rewards, on by default there): the "
@@ -54,9 +54,10 @@ RewardConfig = dataclasses.make_dataclass(
            "plain sum.")}))],
     namespace={"weights": _reward_weights, "__module__": __name__},
 )
-RewardConfig.__doc__ = """Weights of the paper's Table II, one field per term of the registry ``wqwarp.rl.rewards``
-(the fields are derived from it). Each term is multiplied by its weight and by the policy step dt (legged_gym
-convention), summed per step; a zero weight skips the term. Definitions in ``wqwarp.kernels.rewards``."""
+RewardConfig.__doc__ = """Weights of the paper's Table II (and of the terms beyond it, 0 by default), one field per
+term of the registry ``wqwarp.rl.rewards`` (the fields are derived from it). Each term is multiplied by its weight and
+by the policy step dt (legged_gym convention), summed per step; a zero weight skips the term. Definitions in
+``wqwarp.kernels.rewards``."""
 
 
 @dataclass
@@ -508,6 +509,7 @@ MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("predictor.kinematic_lateral_limit", 0.1, "its default (unused with the power criterion)"),
     ("predictor.label_source", "policy", "every robot's sampled actions, the only labels before the setting existed"),
     ("predictor.label_fraction", 0.125, "its default (unused with policy labels)"),
+    ("reward.p_cost", 0.0, "no power-cost term before the setting existed"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
 checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""

@@ -33,7 +33,7 @@ from wqwarp.rl.config import EnvConfig
 from wqwarp.rl.estimator import EstimatorTrainer, StateEstimator
 from wqwarp.rl.gait_selection import make_gait_selector, tracking_error
 from wqwarp.rl.observations import ACTOR_TERMS, ESTIMATE, PRIVILEGED_TERMS
-from wqwarp.rl.rewards import TABLE_II, RewardTerm, check_terms
+from wqwarp.rl.rewards import TERMS, RewardTerm, check_terms
 from wqwarp.robot import constants as C
 from wqwarp.sim.simulator import Simulator
 
@@ -41,9 +41,10 @@ from wqwarp.sim.simulator import Simulator
 class WheeledGo1Env(VecEnv):
     """rsl-rl vectorized environment of the paper's residual-RL wheeled Go1 (see the module docstring)."""
 
-    def __init__(self, cfg: EnvConfig, reward_terms: tuple[RewardTerm, ...] = TABLE_II):
-        """``reward_terms``: the reward registry (default Table II; a term defined outside the package is added
-        here, its weight the field of ``cfg.reward`` of its name or else its default)."""
+    def __init__(self, cfg: EnvConfig, reward_terms: tuple[RewardTerm, ...] = TERMS):
+        """``reward_terms``: the reward registry (default ``TERMS``: Table II, then the terms beyond it at weight 0;
+        a term defined outside the package is added here, its weight the field of ``cfg.reward`` of its name or else
+        its default)."""
         self.cfg = cfg
         self.sim = Simulator(cfg.sim)
         sim = self.sim
@@ -302,6 +303,7 @@ class WheeledGo1Env(VecEnv):
         inp.action, inp.prev_action, inp.prev2_action = self.actions_wp, self.prev_actions_wp, self.prev2_actions_wp
         inp.actuated_qd, inp.prev_actuated_qd = sim.actuated_qd, self.prev_qd_wp
         inp.torque_sq, inp.power_sq, inp.body_collision = sim.torque_sq, sim.power_sq, sim.body_collision
+        inp.p_cost = sim.p_cost
         inp.sigma, inp.dt = self.cfg.reward.tracking_sigma, self.dt
         return inp
 

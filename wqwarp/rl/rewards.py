@@ -1,14 +1,15 @@
 """The reward-term registry: the paper's Table II, one entry per term (name, default weight, formula, NumPy reference).
 
-The entry is the one place a term is named. From :data:`TABLE_II` derive: the names and kernel columns
-(:data:`REWARD_TERMS`), the weight fields of ``wqwarp.rl.config.RewardConfig``, the logs
-(``Episode_Reward/<term>``), the CLI's ``--reward TERM=WEIGHT`` and the summing kernel
+The entry is the one place a term is named. From :data:`TERMS` (:data:`TABLE_II`, then :data:`BEYOND_PAPER`)
+derive: the names and kernel columns (:data:`REWARD_TERMS`), the weight fields of ``wqwarp.rl.config.RewardConfig``,
+the logs (``Episode_Reward/<term>``), the CLI's ``--reward TERM=WEIGHT`` and the summing kernel
 (``wqwarp.kernels.rewards.make_reward_kernel``). Each term's computation is the ``@wp.func`` of the same name in
 ``wqwarp.kernels.rewards`` (or the func given in the entry, for a term defined outside the package).
 
-Adding a term: one ``@wp.func`` in ``wqwarp.kernels.rewards`` and one :class:`RewardTerm` in :data:`TABLE_II`
-(plus its test in ``tests/kernels/test_rewards.py``). A term defined elsewhere (a study, a test) is passed to the
-env instead: ``WheeledGo1Env(cfg, reward_terms=(*TABLE_II, RewardTerm("mine", -1.0, "...", func=my_func)))``.
+Adding a term: one ``@wp.func`` in ``wqwarp.kernels.rewards`` and one :class:`RewardTerm` in :data:`BEYOND_PAPER` at
+weight 0, so that every preset keeps the paper's reward (plus its test in ``tests/kernels/test_rewards.py``). A term
+defined elsewhere (a study, a test) is passed to the env instead:
+``WheeledGo1Env(cfg, reward_terms=(*TERMS, RewardTerm("mine", -1.0, "...", func=my_func)))``.
 
 This module imports no physics engine (``wqwarp.rl.config`` reads it).
 """
@@ -74,8 +75,18 @@ TABLE_II: tuple[RewardTerm, ...] = (
 )  # fmt: skip
 """The paper's Table II in kernel-column order."""
 
-REWARD_TERMS: tuple[str, ...] = tuple(t.name for t in TABLE_II)
-"""Names of the Table II terms, in the order of the reward kernel's output columns."""
+BEYOND_PAPER: tuple[RewardTerm, ...] = (
+    RewardTerm("p_cost", 0.0, "sum_j |tau_j| |qd_j| [W]: the paper's power cost (its evaluation metric, Sec. IV-A) "
+               "as a reward term, substep average; not in Table II (0: off). At -0.02 per W, the nominal gait's 25 W "
+               "at 1 m/s costs 0.5 per second against tracking's 7.", lambda x: x["p_cost"]),
+)  # fmt: skip
+"""Terms beyond the paper's reward, each at weight 0 by default (options measured side by side)."""
+
+TERMS: tuple[RewardTerm, ...] = TABLE_II + BEYOND_PAPER
+"""Every term of the package, in the order of the reward kernel's output columns."""
+
+REWARD_TERMS: tuple[str, ...] = tuple(t.name for t in TERMS)
+"""Names of the terms, in the order of the reward kernel's output columns."""
 
 
 def check_terms(terms: tuple[RewardTerm, ...]) -> None:
