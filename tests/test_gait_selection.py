@@ -225,6 +225,12 @@ def test_the_kinematic_criterion_keeps_lateral_commands_off_the_gait_without_swi
     sel.request_selection()
     sel.select(torch.zeros(n, 2), torch.ones(n, dtype=torch.long), cmd)
     assert (sel.requested[: n // 2] == 2).all() and (sel.requested[n // 2 :] == 0).all()
+    # a yaw limit (off by default) keeps fast turns off the driving gait too
+    turns = torch.tensor([[0.0, 0.0, 0.5], [0.0, 0.0, -0.5], [0.8, 0.0, 0.2], [0.0, 0.05, 0.0]])
+    assert sel.kinematic_candidates(turns).all()  # default 10 rad/s: every gait for every turn
+    sel.cfg.kinematic_yaw_limit = 0.3
+    assert sel.kinematic_candidates(turns)[:, 0].tolist() == [False, False, True, True]
+    assert sel.kinematic_candidates(turns)[:, 1:].all()
 
 
 # --- the network -----------------------------------------------------------------------------------------------------

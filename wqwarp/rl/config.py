@@ -194,6 +194,11 @@ class PredictorConfig(CheckedConfig):
     kinematic_lateral_limit: float = 0.1
     """|v_y^cmd| [m/s] above which the ``kinematic`` criterion excludes the gaits without swing, in training and in
     evaluation alike (a property of the gait, not a learned estimate)."""
+    kinematic_yaw_limit: float = 10.0
+    """|w^cmd| [rad/s] above which the ``kinematic`` criterion also excludes the gaits without swing (default 10:
+    above every command, so driving stays a candidate for any turn). Not a kinematic impossibility: unsteerable
+    wheels turn by skidding, and measured (docs/studies/omnidirectional), the policy learns to turn in the driving
+    gait only with a posture (front feet crossed under the trunk) that also stops its lateral stepping."""
     feasible_penalty: float = 2.0
     """How the ``feasible`` criterion treats a gait that is not a candidate while training: its normalised p_est is
     raised by this (in units of the robot's mean p_est over the gaits) before the softmax, so its odds fall by
@@ -222,7 +227,7 @@ class PredictorConfig(CheckedConfig):
         check_positive(self, "horizon_s", "decision_interval_s", "temperature_start", "temperature_end",
                        "learning_rate", "batch_size", "buffer_size")  # fmt: skip
         check_positive(self, "temperature_iterations", "updates_per_iteration", "feasible_margin",
-                       "feasible_penalty", "kinematic_lateral_limit", strict=False)  # fmt: skip
+                       "feasible_penalty", "kinematic_lateral_limit", "kinematic_yaw_limit", strict=False)  # fmt: skip
         require(0.0 <= self.holdout_fraction < 1.0, "PredictorConfig.holdout_fraction",
                 f"must be in [0, 1), got {self.holdout_fraction}")  # fmt: skip
         require(len(self.hidden_dims) > 0 and min(self.hidden_dims) >= 1, "PredictorConfig.hidden_dims",
@@ -509,6 +514,7 @@ MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("predictor.kinematic_lateral_limit", 0.1, "its default (unused with the power criterion)"),
     ("predictor.label_source", "policy", "every robot's sampled actions, the only labels before the setting existed"),
     ("predictor.label_fraction", 0.125, "its default (unused with policy labels)"),
+    ("predictor.kinematic_yaw_limit", 10.0, "driving a candidate for every yaw command before the setting existed"),
     ("reward.p_cost", 0.0, "no power-cost term before the setting existed"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A

@@ -492,9 +492,11 @@ class PredictiveGaitSelector(FixedGaitSelector):
 
     def kinematic_candidates(self, commands: torch.Tensor) -> torch.Tensor:
         """(N, G) bool: the gaits the ``kinematic`` criterion offers for commands (N, 3): no gait without swing for
-        |v_y| above ``kinematic_lateral_limit`` (never empty: the library has a stepping gait, checked at build)."""
-        lateral = commands[:, 1].abs() > self.cfg.kinematic_lateral_limit
-        return ~(lateral[:, None] & self.stepless[None, :])
+        |v_y| above ``kinematic_lateral_limit`` or |w| above ``kinematic_yaw_limit`` (never empty: the library has a
+        stepping gait, checked at build)."""
+        cfg = self.cfg
+        legged = (commands[:, 1].abs() > cfg.kinematic_lateral_limit) | (commands[:, 2].abs() > cfg.kinematic_yaw_limit)
+        return ~(legged[:, None] & self.stepless[None, :])
 
     def candidate_gaits(self, obs: torch.Tensor) -> torch.Tensor | None:
         """(N, G) bool: the gaits the ``feasible`` criterion offers for o_t; None (every gait) with the ``power``
