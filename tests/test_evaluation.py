@@ -275,8 +275,8 @@ def test_protocols_name_the_gaits_of_the_checkpoints_library(tmp_path, save_chec
 
 
 def test_the_lateral_probe_reports_per_command_and_per_gait(tmp_path, save_checkpoint):
-    """Rows per held v_y command with the achieved v_y, w_z, the commanded foot-y stroke and the phase-residual
-    spread; --per-gait on a predictive checkpoint runs every gait forced, and each forced run ran only that gait."""
+    """Rows per held v_y command with the achieved v_y, w_z, the commanded foot-y stroke, the posture and the
+    phase-residual spread; --per-gait on a predictive checkpoint runs every gait forced, and each forced run ran only that gait."""
     from wqwarp.eval.protocols import make_options, run_protocol
 
     cfg = make_preset("ours")
@@ -292,5 +292,9 @@ def test_the_lateral_probe_reports_per_command_and_per_gait(tmp_path, save_check
         assert [x["command_vy"] for x in rows] == [-0.3, 0.3]
         assert all(x["gait_usage"][gait] == pytest.approx(1.0) for x in rows)
         assert all(x["foot_y_stroke_m"] >= 0 and "std" in x["phase_residual"] for x in rows)
+        for x in rows:  # the posture: time-mean foot residual per leg and axis, after the clip
+            posture = np.asarray(x["foot_residual_mean_m"])
+            assert posture.shape == (4, 3) and np.abs(posture).max() <= cfg.action.foot_clip + 1e-6
+            assert x["foot_residual_abs_mean_m"] == pytest.approx(np.abs(posture).mean(), rel=1e-5)
     assert not r["all_tracked"]  # an untrained policy does not step sideways
     assert (tmp_path / "lat.json").is_file()

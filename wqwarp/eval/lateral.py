@@ -1,7 +1,8 @@
 """The pure-lateral probe: held v_y commands (v_x = w_z = 0), per gait, with what makes a lateral failure cheap to
 explain: the achieved v_y and its ratio to the command, the yaw rate it drags along, the commanded foot-y stroke
-(peak-to-peak of the nominal foot y plus the policy's foot-y residual, per leg, mean over legs), falls, and the
-distribution of the phase residuals and of the gait clock's swing share.
+(peak-to-peak of the nominal foot y plus the policy's foot-y residual, per leg, mean over legs), the posture (the
+time-mean foot residual per leg and axis, after scale and clip: a residual held near the clip is a posture, not a
+stroke), falls, and the distribution of the phase residuals and of the gait clock's swing share.
 
 Targets it checks (issue 21): |v_y| within 30 % of the command and |w_z| < 0.2 rad/s, no falls. With predictive
 selection it runs the selected gait and then each gait of the library forced (``--force-gait``'s mechanism).
@@ -62,7 +63,7 @@ def probe(runner, commands: list[float], per_command: int, seconds: float, force
         cmd = torch.zeros(n, 3, device=env.device)
         cmd[:, 1] = torch.tensor(commands, device=env.device).repeat_interleave(per_command)
         obs = start_rollout(env, cmd, seconds)
-        vel, foot_y, dphi, swing, gaits = [], [], [], [], []
+        vel, foot_y, dp, dphi, swing, gaits = [], [], [], [], [], []
         fell = torch.zeros(n, dtype=torch.bool, device=env.device)
         for k in range(int(round(seconds / env.dt))):
             obs, _, dones, _ = env.step(runner.policy(obs))
@@ -72,7 +73,9 @@ def probe(runner, commands: list[float], per_command: int, seconds: float, force
             vel.append(base_velocity(env))
             if env.nominal is not None:
                 ng = env.nominal
-                foot_y.append(wp.to_torch(ng.foot_target)[:, :, 1] + wp.to_torch(env.foot_residual_wp)[:, :, 1])
+                residual = wp.to_torch(env.foot_residual_wp)
+                foot_y.append(wp.to_torch(ng.foot_target)[:, :, 1] + residual[:, :, 1])
+                dp.append(residual.clone())
                 dphi.append(wp.to_torch(ng.phase_residual).clone())
                 swing.append((wp.to_torch(ng.swing_psi) >= 0).float().mean(1))
             gaits.append(env.active_gait())
@@ -87,6 +90,9 @@ def probe(runner, commands: list[float], per_command: int, seconds: float, force
         if foot_y:
             fy = torch.stack(foot_y)[:, r]  # (T, k, 4)
             row["foot_y_stroke_m"] = float((fy.amax(0) - fy.amin(0)).mean())
+            posture = torch.stack(dp)[:, r].mean((0, 1))  # (4 legs, x y z) [m]
+            row["foot_residual_mean_m"] = posture.tolist()
+            row["foot_residual_abs_mean_m"] = float(posture.abs().mean())
             d = torch.stack(dphi)[:, r].flatten()
             row["phase_residual"] = {"mean": float(d.mean()), "std": float(d.std()),
                                      "p05": float(d.quantile(0.05)), "p95": float(d.quantile(0.95))}  # fmt: skip
@@ -116,17 +122,19 @@ def lateral(opts: LateralOptions, log: TextIO = sys.stdout) -> dict:
     out = {}
     print(f"lateral probe of {opts.checkpoint} ({runner.preset}, iteration {runner.iteration}): held v_y, v_x = "
           f"w_z = 0, {opts.robots_per_command} robots each, {opts.seconds:g} s", file=log)  # fmt: skip
-    print(f"{'gait':<10} {'cmd':>6} {'v_y':>7} {'ratio':>6} {'w_z':>7} {'stroke':>7} {'dphi std':>8} {'up':>5} "
-          f"tracked", file=log)  # fmt: skip
+    print(f"{'gait':<10} {'cmd':>6} {'v_y':>7} {'ratio':>6} {'w_z':>7} {'stroke':>7} {'posture':>7} {'dphi std':>8} "
+          f"{'up':>5} tracked", file=log)  # fmt: skip
     for label, forced in runs:
         rows = probe(runner, commands, opts.robots_per_command, opts.seconds, forced)
         out[label] = rows
         for r in rows:
             ratio = f"{r['ratio']:.2f}" if r["ratio"] is not None else "-"
             stroke = f"{100 * r.get('foot_y_stroke_m', 0.0):.1f}cm"
+            posture = f"{100 * r.get('foot_residual_abs_mean_m', 0.0):.1f}cm"
             std = f"{r['phase_residual']['std']:.3f}" if "phase_residual" in r else "-"
             print(f"{label:<10} {r['command_vy']:>6.2f} {r['vy']:>7.3f} {ratio:>6} {r['wz']:>7.3f} {stroke:>7} "
-                  f"{std:>8} {r['upright']:>5.2f} {'yes' if r['tracked'] else 'no'}", file=log)  # fmt: skip
+                  f"{posture:>7} {std:>8} {r['upright']:>5.2f} {'yes' if r['tracked'] else 'no'}",
+                  file=log)  # fmt: skip
     return {"checkpoint": opts.checkpoint, "preset": runner.preset, "iteration": runner.iteration,
             "seconds": opts.seconds, "robots_per_command": opts.robots_per_command, "seed": opts.seed,
             "ratio_tolerance": RATIO_TOLERANCE, "yaw_limit": YAW_LIMIT, "runs": out,
