@@ -276,7 +276,8 @@ def test_protocols_name_the_gaits_of_the_checkpoints_library(tmp_path, save_chec
 
 def test_the_lateral_probe_reports_per_command_and_per_gait(tmp_path, save_checkpoint):
     """Rows per held v_y command with the achieved v_y, w_z, the commanded foot-y stroke, the posture and the
-    phase-residual spread; --per-gait on a predictive checkpoint runs every gait forced, and each forced run ran only that gait."""
+    phase-residual spread; --per-gait on a predictive checkpoint runs every gait forced, and each forced run ran only
+    that gait."""
     from wqwarp.eval.protocols import make_options, run_protocol
 
     cfg = make_preset("ours")
@@ -298,3 +299,20 @@ def test_the_lateral_probe_reports_per_command_and_per_gait(tmp_path, save_check
             assert x["foot_residual_abs_mean_m"] == pytest.approx(np.abs(posture).mean(), rel=1e-5)
     assert not r["all_tracked"]  # an untrained policy does not step sideways
     assert (tmp_path / "lat.json").is_file()
+
+
+def test_the_noise_escape_probe_finds_no_escape_in_an_untrained_policy(tmp_path, save_checkpoint):
+    """tools/studies/noise_escape_probe.py: around a near-zero mean residual, the sampled noise reaches the leg
+    targets as it would around the nominal foot (ratio ~1), and no foot sample sits at the clip."""
+    import importlib
+
+    probe = importlib.import_module("tools.studies.noise_escape_probe").probe
+    cfg = make_preset("ours")
+    cfg.sim.num_envs = 1
+    torch.manual_seed(0)
+    save_checkpoint(tmp_path / "model_0.pt", cfg)
+    out = probe(str(tmp_path / "model_0.pt"), seconds=0.4, samples=6, seed=0)
+    assert set(out["commands"]) == {"stand", "vx0.5", "vy0.3", "wz0.5"}
+    for r in out["commands"].values():
+        assert r["joint_target_noise_without_posture_rad"] > 0.01  # std 0.5 x 0.2 m of foot noise moves the joints
+        assert 0.7 < r["ratio"] < 1.4 and r["foot_at_clip"] < 0.02

@@ -1,0 +1,134 @@
+"""Does a policy's posture hide its exploration noise? How much of the foot-residual noise reaches the leg targets.
+
+A Gaussian policy pays for its exploration noise in the penalties (at std 0.5 about -8.7 reward per second here,
+docs/studies/omnidirectional). A mean foot residual held where the residual is clipped (|0.2 a| >= foot_clip) or
+where the joint target passes a joint limit makes the noise of that action column do nothing: the policy escapes
+the noise's cost by its posture, and a foot held at the clip can no longer step. This probe measures it for a
+checkpoint: robots hold four commands (stand, v_x 0.5, v_y 0.3, w 0.5 m/s or rad/s) with the deterministic policy
+for ``--seconds``; at the end state it draws ``--samples`` actions a = mu + sigma eps (sigma: the checkpoint's
+std) and pushes each through the env's action map (clip, foot IK: ``wqwarp.kernels.actions.residual_targets``).
+Reported per command: the std of the 12 leg-joint targets over the samples [rad] (applied noise), the same with
+the policy's foot residual mean set to zero (the noise around the nominal foot: the counterfactual without the
+posture), their ratio, the share of foot-residual samples at the clip, and of joint targets beyond the joint
+range.
+
+Usage::
+
+    python tools/studies/noise_escape_probe.py --checkpoint runs/X/model_4882.pt [--json out.json]
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+
+from wqwarp.cli.args import doc_parser
+from wqwarp.utils.io import output_problem
+
+COMMANDS = {"stand": (0.0, 0.0, 0.0), "vx0.5": (0.5, 0.0, 0.0), "vy0.3": (0.0, 0.3, 0.0), "wz0.5": (0.0, 0.0, 0.5)}
+ROBOTS_PER_COMMAND = 4
+
+
+def probe(checkpoint: str, seconds: float, samples: int, seed: int) -> dict:
+    import torch
+    import warp as wp
+
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.rollout import evaluation_session, start_rollout
+    from wqwarp.kernels.actions import residual_targets
+    from wqwarp.robot import constants as C
+
+    runner = make_policy_runner(checkpoint, None, len(COMMANDS) * ROBOTS_PER_COMMAND, seed=seed)
+    env = runner.env
+    if not env.residual_mode:
+        raise ValueError(f"{checkpoint}: the probe needs a residual policy (20 actions), not {runner.preset}")
+    sigma = torch.load(checkpoint, map_location="cpu", weights_only=False)["actor_state_dict"]["distribution.std_param"]
+    cfg, n = env.cfg.action, env.num_envs
+    cmd = torch.tensor(list(COMMANDS.values())).repeat_interleave(ROBOTS_PER_COMMAND, 0)
+    with evaluation_session(env), torch.no_grad():
+        obs = start_rollout(env, cmd, seconds + 1.0)
+        for _ in range(int(round(seconds / env.dt))):
+            obs, _, _, _ = env.step(runner.policy(obs))
+        mu = runner.policy(obs)
+        ng = env.nominal
+        gen = torch.Generator().manual_seed(seed)
+        lo = torch.tensor([C.HIP_RANGE[0], C.THIGH_RANGE[0], C.CALF_RANGE[0]] * 4)
+        hi = torch.tensor([C.HIP_RANGE[1], C.THIGH_RANGE[1], C.CALF_RANGE[1]] * 4)
+
+        def targets(mean: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+            """(S, N, 12) leg targets and (S, N, 12) raw foot actions of ``samples`` draws around ``mean``."""
+            a = mean[None] + sigma * torch.randn(samples, *mean.shape, generator=gen)
+            q = []
+            for s in range(samples):
+                out = [wp.zeros((n, 4), dtype=wp.vec3), wp.zeros((n, 12), dtype=float), wp.zeros((n, 4), dtype=float)]
+                wp.launch(residual_targets, dim=(n, 4),
+                          inputs=[wp.from_torch(a[s].contiguous()), ng.foot_target, ng.wheel_velocity,
+                                  int(cfg.use_nominal_wheels), cfg.foot_scale, cfg.foot_clip, cfg.wheel_scale,
+                                  cfg.wheel_clip], outputs=out)  # fmt: skip
+                q.append(wp.to_torch(out[1]).clone())
+            return torch.stack(q), a[:, :, 4:16]
+
+        q, foot = targets(mu)
+        bare = mu.clone()
+        bare[:, 4:16] = 0.0
+        q0, _ = targets(bare)
+    rows = {}
+    for i, name in enumerate(COMMANDS):
+        r = slice(i * ROBOTS_PER_COMMAND, (i + 1) * ROBOTS_PER_COMMAND)
+        applied, nominal = float(q[:, r].std(0).mean()), float(q0[:, r].std(0).mean())
+        rows[name] = {
+            "joint_target_noise_rad": applied, "joint_target_noise_without_posture_rad": nominal,
+            "ratio": applied / nominal if nominal > 0 else None,
+            "foot_at_clip": float((cfg.foot_scale * foot[:, r].abs() >= cfg.foot_clip).float().mean()),
+            "joint_target_beyond_range": float(((q[:, r] < lo) | (q[:, r] > hi)).float().mean()),
+            "foot_residual_abs_mean_m": float((cfg.foot_scale * mu[r, 4:16]).clamp(-cfg.foot_clip, cfg.foot_clip)
+                                              .abs().mean()),
+        }  # fmt: skip
+    return {"checkpoint": checkpoint, "iteration": runner.iteration, "seconds": seconds, "samples": samples,
+            "seed": seed, "robots_per_command": ROBOTS_PER_COMMAND, "foot_std": sigma[4:16].tolist(),
+            "commands": rows}  # fmt: skip
+
+
+def main(argv=None) -> int:
+    ap = doc_parser(__doc__)
+    ap.add_argument("--checkpoint", required=True, help="a residual policy's model_<it>.pt")
+    ap.add_argument("--seconds", type=float, default=3.0, help="rollout before the probe [s] (default 3)")
+    ap.add_argument("--samples", type=int, default=64, help="noise draws per robot (default 64)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the rollout and of the draws (default 0)")
+    ap.add_argument("--json", default=None, help="also write the results to this JSON file")
+    args = ap.parse_args(argv)
+    if not os.path.isfile(args.checkpoint):
+        print(f"error: no such checkpoint: {args.checkpoint}", file=sys.stderr)
+        return 2
+    if args.seconds <= 0 or args.samples < 2:
+        print("error: need --seconds > 0 and --samples >= 2", file=sys.stderr)
+        return 2
+    if args.json and (problem := output_problem(args.json)):
+        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
+        return 2
+    from wqwarp import quiet_warp
+
+    quiet_warp()
+    try:
+        out = probe(args.checkpoint, args.seconds, args.samples, args.seed)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(f"noise escape probe of {args.checkpoint} (iteration {out['iteration']}), foot std "
+          f"{sum(out['foot_std']) / 12:.3f}")  # fmt: skip
+    print(f"{'command':<8} {'noise [rad]':>11} {'w/o posture':>11} {'ratio':>6} {'at clip':>8} {'beyond q':>8} "
+          f"{'posture':>8}")  # fmt: skip
+    for name, r in out["commands"].items():
+        print(f"{name:<8} {r['joint_target_noise_rad']:>11.4f} {r['joint_target_noise_without_posture_rad']:>11.4f} "
+              f"{r['ratio']:>6.2f} {r['foot_at_clip']:>8.1%} {r['joint_target_beyond_range']:>8.1%} "
+              f"{100 * r['foot_residual_abs_mean_m']:>6.1f}cm")  # fmt: skip
+    if args.json:
+        from wqwarp.utils.io import write_text_atomic
+
+        write_text_atomic(args.json, json.dumps({"command": " ".join(sys.argv), **out}, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
