@@ -432,6 +432,7 @@ def test_compute_rewards_gradient(device):
         inp.base_lin_vel, inp.base_ang_vel, inp.projected_gravity = base[:3]
         (inp.command, inp.action, inp.prev_action, inp.prev2_action, inp.actuated_qd, inp.prev_actuated_qd,
          inp.torque_sq, inp.power_sq, inp.body_collision, weight, inp.sigma, inp.dt) = ins[2:]
+        inp.p_cost = _f32(np.zeros(n), device)  # read by no Table II term; every struct field must be set for the tape
         kernel = make_reward_kernel(tuple(t.resolve() for t in TABLE_II))
         wp.launch(kernel, dim=n, inputs=[inp, weight], outputs=outs, device=device)  # fresh episode_sum every launch
         return outs[0]
