@@ -9,8 +9,8 @@ for ``--seconds``; at the end state it draws ``--samples`` actions a = mu + sigm
 std) and pushes each through the env's action map (clip, foot IK: ``wqwarp.kernels.actions.residual_targets``).
 Reported per command: the std of the 12 leg-joint targets over the samples [rad] (applied noise), the same with
 the policy's foot residual mean set to zero (the noise around the nominal foot: the counterfactual without the
-posture), their ratio, the share of foot-residual samples at the clip, and of joint targets beyond the joint
-range.
+posture), their ratio, the share of foot-residual samples at the clip, and of joint targets at a joint range
+bound (the foot IK clamps to the ranges, so noise there does not move the joint either).
 
 Usage::
 
@@ -53,8 +53,7 @@ def probe(checkpoint: str, seconds: float, samples: int, seed: int) -> dict:
         mu = runner.policy(obs)
         ng = env.nominal
         gen = torch.Generator().manual_seed(seed)
-        lo = torch.tensor([C.HIP_RANGE[0], C.THIGH_RANGE[0], C.CALF_RANGE[0]] * 4)
-        hi = torch.tensor([C.HIP_RANGE[1], C.THIGH_RANGE[1], C.CALF_RANGE[1]] * 4)
+        lo, hi = torch.tensor(C.LEG_JOINT_RANGES).T
 
         def targets(mean: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
             """(S, N, 12) leg targets and (S, N, 12) raw foot actions of ``samples`` draws around ``mean``."""
@@ -81,7 +80,7 @@ def probe(checkpoint: str, seconds: float, samples: int, seed: int) -> dict:
             "joint_target_noise_rad": applied, "joint_target_noise_without_posture_rad": nominal,
             "ratio": applied / nominal if nominal > 0 else None,
             "foot_at_clip": float((cfg.foot_scale * foot[:, r].abs() >= cfg.foot_clip).float().mean()),
-            "joint_target_beyond_range": float(((q[:, r] < lo) | (q[:, r] > hi)).float().mean()),
+            "joint_target_at_range": float(((q[:, r] <= lo + 1e-4) | (q[:, r] >= hi - 1e-4)).float().mean()),
             "foot_residual_abs_mean_m": float((cfg.foot_scale * mu[r, 4:16]).clamp(-cfg.foot_clip, cfg.foot_clip)
                                               .abs().mean()),
         }  # fmt: skip
@@ -117,11 +116,11 @@ def main(argv=None) -> int:
         return 2
     print(f"noise escape probe of {args.checkpoint} (iteration {out['iteration']}), foot std "
           f"{sum(out['foot_std']) / 12:.3f}")  # fmt: skip
-    print(f"{'command':<8} {'noise [rad]':>11} {'w/o posture':>11} {'ratio':>6} {'at clip':>8} {'beyond q':>8} "
+    print(f"{'command':<8} {'noise [rad]':>11} {'w/o posture':>11} {'ratio':>6} {'at clip':>8} {'at q lim':>8} "
           f"{'posture':>8}")  # fmt: skip
     for name, r in out["commands"].items():
         print(f"{name:<8} {r['joint_target_noise_rad']:>11.4f} {r['joint_target_noise_without_posture_rad']:>11.4f} "
-              f"{r['ratio']:>6.2f} {r['foot_at_clip']:>8.1%} {r['joint_target_beyond_range']:>8.1%} "
+              f"{r['ratio']:>6.2f} {r['foot_at_clip']:>8.1%} {r['joint_target_at_range']:>8.1%} "
               f"{100 * r['foot_residual_abs_mean_m']:>6.1f}cm")  # fmt: skip
     if args.json:
         from wqwarp.utils.io import write_text_atomic

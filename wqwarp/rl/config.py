@@ -369,15 +369,12 @@ class EnvConfig(CheckedConfig):
 def resolve_algorithm_class(name: str) -> type:
     """The class ``"module:Class"`` names (imported: torch and rsl-rl come with it); ValueError naming
     ``TrainConfig.algorithm_class`` unless it is WqPPO or a subclass of it."""
-    import importlib
+    from rsl_rl.utils import resolve_callable
 
     owner = "TrainConfig.algorithm_class"
-    module, _, attr = name.partition(":")
     try:
-        cls = importlib.import_module(module)
-        for part in attr.split("."):
-            cls = getattr(cls, part)
-    except (ImportError, AttributeError) as e:
+        cls = resolve_callable(name)  # how rsl-rl's runner reads algorithm.class_name
+    except (ImportError, AttributeError, ValueError) as e:
         raise ValueError(f"{owner} {name!r} does not import: {e}") from None
     from wqwarp.rl.algorithm import WqPPO
 
