@@ -43,6 +43,12 @@ class RewardInputs:
     """(N,) sum_j |tau_j| |qd_j|, substep average [W] (``wqwarp.kernels.power``)."""
     body_collision: wp.array2d(dtype=wp.int32)
     """(N, 9) 1 for each trunk / thigh / calf body touching the ground."""
+    actuated_q: wp.array2d(dtype=wp.float32)
+    """(N, 16) actuated joint positions after the step, project order (legs first) [rad]."""
+    joint_soft_low: wp.array(dtype=wp.float32)
+    """(12,) soft lower limit of each leg joint [rad]: range centre minus ``soft_joint_limit`` x half width."""
+    joint_soft_high: wp.array(dtype=wp.float32)
+    """(12,) soft upper limit of each leg joint [rad]."""
     sigma: float
     """Tracking sharpness: the 4 in exp(-4 err^2) [1/(m/s)^2]."""
     dt: float
@@ -152,6 +158,16 @@ def energy(inp: RewardInputs, i: int, v: wp.vec3, w: wp.vec3, g: wp.vec3) -> flo
 def p_cost(inp: RewardInputs, i: int, v: wp.vec3, w: wp.vec3, g: wp.vec3) -> float:
     """sum_j |tau_j| |qd_j| [W]: the paper's power cost, substep average (beyond Table II)."""
     return inp.p_cost[i]
+
+
+@wp.func
+def joint_limits(inp: RewardInputs, i: int, v: wp.vec3, w: wp.vec3, g: wp.vec3) -> float:
+    """sum_j max(0, l_j - q_j) + max(0, q_j - u_j) [rad]: leg joints beyond their soft limits (beyond Table II)."""
+    r = float(0.0)
+    for j in range(inp.joint_soft_low.shape[0]):
+        q = inp.actuated_q[i, j]
+        r += wp.max(inp.joint_soft_low[j] - q, 0.0) + wp.max(q - inp.joint_soft_high[j], 0.0)
+    return r
 
 
 _KERNELS: dict[tuple[wp.Function, ...], wp.Kernel] = {}

@@ -65,6 +65,27 @@ def test_power_is_logged_per_joint_group_and_the_energy_terms_read_the_substep_a
         weights[k] = 0.0
 
 
+def test_joint_limit_term_reads_the_legs_positions_after_the_step(env):
+    """The joint-limit term (beyond Table II, off by default) sums the leg joints' excursions beyond the soft range
+    (0.9 of each range) of the simulator's positions after the step; a large random action drives some there."""
+    from wqwarp.rl.rewards import soft_joint_limits
+
+    weights, k = wp.to_torch(env.reward_weights), REWARD_TERMS.index("joint_limits")
+    assert float(weights[k]) == 0.0
+    weights[k] = -10.0
+    try:
+        for _ in range(3):
+            env.step(5.0 * torch.randn(N, env.num_actions, generator=torch.Generator().manual_seed(1)))
+        low, high = (torch.tensor(b, dtype=torch.float32) for b in soft_joint_limits(0.9))
+        q = wp.to_torch(env.sim.actuated_q)[:, :12].cpu()
+        beyond = ((low - q).clamp(min=0) + (q - high).clamp(min=0)).sum(1)
+        got = wp.to_torch(env.reward_terms_wp)[:, k].cpu()
+        torch.testing.assert_close(got, -10.0 * beyond * env.dt, rtol=1e-4, atol=1e-7)
+    finally:
+        weights[k] = 0.0
+    assert float(beyond.max()) > 0.0  # the case was exercised
+
+
 def test_observation_decodes_into_named_parts(env):
     env.cfg.obs.noise = False
     cmd = torch.tensor([[0.5, -0.2, 0.3]] * N)

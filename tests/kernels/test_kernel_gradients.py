@@ -433,6 +433,8 @@ def test_compute_rewards_gradient(device):
         (inp.command, inp.action, inp.prev_action, inp.prev2_action, inp.actuated_qd, inp.prev_actuated_qd,
          inp.torque_sq, inp.power_sq, inp.body_collision, weight, inp.sigma, inp.dt) = ins[2:]
         inp.p_cost = _f32(np.zeros(n), device)  # read by no Table II term; every struct field must be set for the tape
+        inp.actuated_q, inp.joint_soft_low, inp.joint_soft_high = _f32(np.zeros((n, 16)), device), *(
+            _f32(np.zeros(12), device) for _ in range(2))
         kernel = make_reward_kernel(tuple(t.resolve() for t in TABLE_II))
         wp.launch(kernel, dim=n, inputs=[inp, weight], outputs=outs, device=device)  # fresh episode_sum every launch
         return outs[0]

@@ -10,7 +10,7 @@ import warp as wp
 
 from wqwarp.kernels.rewards import RewardInputs, make_reward_kernel
 from wqwarp.rl.config import REWARD_TERMS, RewardConfig
-from wqwarp.rl.rewards import BEYOND_PAPER, TABLE_II, TERMS, RewardTerm, check_terms
+from wqwarp.rl.rewards import BEYOND_PAPER, TABLE_II, TERMS, RewardTerm, check_terms, soft_joint_limits
 
 BASE = {"v": "base_lin_vel", "w": "base_ang_vel", "g": "projected_gravity"}
 """The references' names of the base-frame inputs -> the RewardInputs fields."""
@@ -19,7 +19,7 @@ BASE = {"v": "base_lin_vel", "w": "base_ang_vel", "g": "projected_gravity"}
 def _inputs(device, x: dict) -> RewardInputs:
     inp = RewardInputs()
     for f in ("v", "w", "g", "command", "action", "prev_action", "prev2_action", "actuated_qd", "prev_actuated_qd",
-              "torque_sq", "power_sq", "p_cost"):  # fmt: skip
+              "torque_sq", "power_sq", "p_cost", "actuated_q", "joint_soft_low", "joint_soft_high"):  # fmt: skip
         setattr(inp, BASE.get(f, f), wp.array(np.asarray(x[f], np.float32), dtype=wp.float32, device=device))
     inp.body_collision = wp.array(x["body_collision"].astype(np.int32), dtype=wp.int32, device=device)
     inp.sigma, inp.dt = x["sigma"], x["dt"]
@@ -42,7 +42,8 @@ def _random_inputs(n: int = 5, seed: int = 0) -> dict:
             "action": a, "prev_action": a1, "prev2_action": a2, "actuated_qd": rng.normal(size=(n, 16)) * 5,
             "prev_actuated_qd": rng.normal(size=(n, 16)) * 5, "torque_sq": (tau**2).sum(2).mean(0),
             "power_sq": ((tau * qd_sub) ** 2).sum(2).mean(0), "p_cost": np.abs(tau * qd_sub).sum(2).mean(0),
-            "body_collision": rng.integers(0, 2, (n, 9)),
+            "body_collision": rng.integers(0, 2, (n, 9)), "actuated_q": rng.normal(size=(n, 16)) * 2,
+            "joint_soft_low": soft_joint_limits(0.9)[0], "joint_soft_high": soft_joint_limits(0.9)[1],
             "sigma": 4.0, "dt": 0.02}  # fmt: skip
 
 
@@ -62,7 +63,7 @@ def test_registry_derives_the_config_fields_and_every_term_has_a_formula_and_a_r
     assert REWARD_TERMS == tuple(t.name for t in TERMS) and len(TABLE_II) == 12
     assert all(t.weight == 0.0 for t in BEYOND_PAPER)  # every preset keeps the paper's reward
     fields = {f.name: f for f in dataclasses.fields(RewardConfig)}
-    assert list(fields) == [*REWARD_TERMS, "tracking_sigma", "only_positive"]
+    assert list(fields) == [*REWARD_TERMS, "tracking_sigma", "only_positive", "soft_joint_limit"]
     for t in TERMS:
         assert fields[t.name].default == t.weight and fields[t.name].metadata["doc"] == t.doc
         assert t.reference is not None and t.doc
@@ -104,12 +105,18 @@ def test_hand_values_and_zero_weights(device):
     weights = np.asarray(RewardConfig().weights())
     weights[REWARD_TERMS.index("torques")] = 0.0
     weights[REWARD_TERMS.index("p_cost")] = -0.02
+    weights[REWARD_TERMS.index("joint_limits")] = -10.0
     dt = 0.02
+    low, high = soft_joint_limits(0.9)
+    q = np.zeros((1, 16))
+    q[0, :12] = (low + high) / 2  # every leg joint mid-range, but the first hip 0.1 rad beyond its soft upper limit
+    q[0, 0] = high[0] + 0.1  # (the hip range +-0.863 rad: soft limit 0.7767) and a wheel angle of no joint range
+    q[0, 12] = 100.0
     x = {"v": np.array([[0.5, 0.0, 0.0]]), "w": np.array([[0.0, 0.0, 0.2]]), "g": g,
          "command": np.array([[0.5, 0.0, 0.2]]), "action": a, "prev_action": z20,
          "prev2_action": z20, "actuated_qd": qd, "prev_actuated_qd": z16, "torque_sq": np.array([16 * 49.0]),
-         "power_sq": np.array([100.0]), "p_cost": np.array([25.0]), "body_collision": coll, "sigma": 4.0,
-         "dt": dt}  # fmt: skip
+         "power_sq": np.array([100.0]), "p_cost": np.array([25.0]), "body_collision": coll, "actuated_q": q,
+         "joint_soft_low": low, "joint_soft_high": high, "sigma": 4.0, "dt": dt}  # fmt: skip
     _, term, _ = _launch(device, TERMS, x, weights)
     t = dict(zip(REWARD_TERMS, term[0], strict=True))
     assert t["track_vx"] == pytest.approx(2.0 * dt) and t["track_wz"] == pytest.approx(3.0 * dt)
@@ -121,6 +128,7 @@ def test_hand_values_and_zero_weights(device):
     assert t["torques"] == 0.0  # zero weight: not evaluated
     assert t["energy"] == pytest.approx(-1e-5 * 100.0 * dt)  # reads the substep-averaged sum (tau qd)^2
     assert t["p_cost"] == pytest.approx(-0.02 * 25.0 * dt)  # the substep-averaged sum |tau| |qd|, in W
+    assert high[0] == pytest.approx(0.9 * 0.863) and t["joint_limits"] == pytest.approx(-10.0 * 0.1 * dt, rel=1e-4)
     assert t["orientation"] == 0.0 and t["lin_vel_z"] == 0.0 and t["ang_vel_xy"] == 0.0
     # Rolled 90 deg: gravity lies along the base y axis, ||g_xy||^2 = 1.
     x["g"] = np.array([[0.0, -1.0, 0.0]])

@@ -51,7 +51,10 @@ RewardConfig = dataclasses.make_dataclass(
        ("only_positive", bool, field(default=False, metadata={"doc": (
            "Clip each step's summed reward at zero (legged_gym's only_positive_rewards, on by default there): the "
            "penalties cannot make a step worse than doing nothing rewarded. The paper does not say; off keeps the "
-           "plain sum.")}))],
+           "plain sum.")})),
+       ("soft_joint_limit", float, field(default=0.9, metadata={"doc": (
+           "Width of the soft joint range of the joint_limits term as a fraction of each leg joint's range, about "
+           "its centre (legged_gym's soft_dof_pos_limit).")}))],
     namespace={"weights": _reward_weights, "__module__": __name__},
 )
 RewardConfig.__doc__ = """Weights of the paper's Table II (and of the terms beyond it, 0 by default), one field per
@@ -362,6 +365,8 @@ class EnvConfig(CheckedConfig):
 
     def check(self) -> None:
         check_positive(self, "episode_length_s")
+        f = self.reward.soft_joint_limit
+        require(0.0 < f <= 1.0, "RewardConfig.soft_joint_limit", f"must be in (0, 1], got {f}")
         require(self.gait.selection != "none" or not self.action.use_nominal_legs, "ActionConfig.use_nominal_legs",
                 "needs a nominal gait (gait.selection != 'none')")  # fmt: skip
 
@@ -513,6 +518,8 @@ MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("predictor.label_fraction", 0.125, "its default (unused with policy labels)"),
     ("predictor.kinematic_yaw_limit", 10.0, "driving a candidate for every yaw command before the setting existed"),
     ("reward.p_cost", 0.0, "no power-cost term before the setting existed"),
+    ("reward.joint_limits", 0.0, "no joint-limit term before the setting existed"),
+    ("reward.soft_joint_limit", 0.9, "the default; read only by the joint-limit term, off before it existed"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
 checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""

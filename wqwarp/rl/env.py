@@ -33,7 +33,7 @@ from wqwarp.rl.config import EnvConfig
 from wqwarp.rl.estimator import EstimatorTrainer, StateEstimator
 from wqwarp.rl.gait_selection import make_gait_selector, tracking_error
 from wqwarp.rl.observations import ACTOR_TERMS, ESTIMATE, PRIVILEGED_TERMS
-from wqwarp.rl.rewards import TERMS, RewardTerm, check_terms
+from wqwarp.rl.rewards import TERMS, RewardTerm, check_terms, soft_joint_limits
 from wqwarp.robot import constants as C
 from wqwarp.sim.simulator import Simulator
 
@@ -110,6 +110,8 @@ class WheeledGo1Env(VecEnv):
         self.reward_buf = wp.to_torch(self.reward_wp)
         self.episode_sums = wp.to_torch(self.episode_sums_wp)
         self.active_terms = [k for k, w in zip(self.reward_names, weights, strict=True) if w != 0.0]
+        self.joint_soft_limits_wp = tuple(wp.array(b.astype(np.float32), dtype=wp.float32, device=sim.device)
+                                          for b in soft_joint_limits(cfg.reward.soft_joint_limit))  # fmt: skip
         self.reward_inputs = self._reward_inputs()
 
         # Domain randomisation (fixed per robot for the run) and pushes.
@@ -303,7 +305,8 @@ class WheeledGo1Env(VecEnv):
         inp.action, inp.prev_action, inp.prev2_action = self.actions_wp, self.prev_actions_wp, self.prev2_actions_wp
         inp.actuated_qd, inp.prev_actuated_qd = sim.actuated_qd, self.prev_qd_wp
         inp.torque_sq, inp.power_sq, inp.body_collision = sim.torque_sq, sim.power_sq, sim.body_collision
-        inp.p_cost = sim.p_cost
+        inp.p_cost, inp.actuated_q = sim.p_cost, sim.actuated_q
+        inp.joint_soft_low, inp.joint_soft_high = self.joint_soft_limits_wp
         inp.sigma, inp.dt = self.cfg.reward.tracking_sigma, self.dt
         return inp
 

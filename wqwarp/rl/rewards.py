@@ -56,6 +56,21 @@ def _track(x: Inputs, col: int, actual: np.ndarray) -> np.ndarray:
     return np.exp(-x["sigma"] * (x["command"][:, col] - actual) ** 2)
 
 
+def soft_joint_limits(fraction: float) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) (12,) of the leg joints' ranges (``wqwarp.robot.constants.LEG_JOINT_RANGES``) shrunk about their
+    centres to ``fraction`` of their widths [rad] (legged_gym's soft limits): the bounds of the joint_limits term."""
+    from wqwarp.robot.constants import LEG_JOINT_RANGES
+
+    r = np.asarray(LEG_JOINT_RANGES, np.float64)
+    mid, half = r.mean(1), 0.5 * fraction * (r[:, 1] - r[:, 0])
+    return mid - half, mid + half
+
+
+def _beyond_soft_limits(x: Inputs) -> np.ndarray:
+    q = x["actuated_q"][:, : len(x["joint_soft_low"])]
+    return (np.maximum(x["joint_soft_low"] - q, 0.0) + np.maximum(q - x["joint_soft_high"], 0.0)).sum(1)
+
+
 TABLE_II: tuple[RewardTerm, ...] = (
     RewardTerm("track_vx", 2.0, "exp(-4 (v_x^cmd - v_x)^2), base frame.", lambda x: _track(x, 0, x["v"][:, 0])),
     RewardTerm("track_vy", 2.0, "exp(-4 (v_y^cmd - v_y)^2).", lambda x: _track(x, 1, x["v"][:, 1])),
@@ -79,6 +94,10 @@ BEYOND_PAPER: tuple[RewardTerm, ...] = (
     RewardTerm("p_cost", 0.0, "sum_j |tau_j| |qd_j| [W]: the paper's power cost (its evaluation metric, Sec. IV-A) "
                "as a reward term, substep average; not in Table II (0: off). At -0.02 per W, the nominal gait's 25 W "
                "at 1 m/s costs 0.5 per second against tracking's 7.", lambda x: x["p_cost"]),
+    RewardTerm("joint_limits", 0.0, "sum_j max(0, l_j - q_j) + max(0, q_j - u_j) [rad] over the 12 leg joints, (l_j, "
+               "u_j) the joint range shrunk about its centre to reward.soft_joint_limit of its width (legged_gym's "
+               "dof_pos_limits: -10 with soft_dof_pos_limit 0.9 in legged_gym/envs/a1/a1_config.py); not in Table II "
+               "(0: off).", lambda x: _beyond_soft_limits(x)),
 )  # fmt: skip
 """Terms beyond the paper's reward, each at weight 0 by default (options measured side by side)."""
 
