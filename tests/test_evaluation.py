@@ -316,3 +316,4 @@ def test_the_noise_escape_probe_finds_no_escape_in_an_untrained_policy(tmp_path,
     for r in out["commands"].values():
         assert r["joint_target_noise_without_posture_rad"] > 0.01  # std 0.5 x 0.2 m of foot noise moves the joints
         assert 0.7 < r["ratio"] < 1.4 and r["foot_at_clip"] < 0.02
+        assert r["joint_beyond_soft_limit"] == 0.0 and r["joint_limits_term_rad"] == 0.0  # the nominal gait's joints

@@ -10,7 +10,9 @@ std) and pushes each through the env's action map (clip, foot IK: ``wqwarp.kerne
 Reported per command: the std of the 12 leg-joint targets over the samples [rad] (applied noise), the same with
 the policy's foot residual mean set to zero (the noise around the nominal foot: the counterfactual without the
 posture), their ratio, the share of foot-residual samples at the clip, and of joint targets at a joint range
-bound (the foot IK clamps to the ranges, so noise there does not move the joint either).
+bound (the foot IK clamps to the ranges, so noise there does not move the joint either); and where the joints
+are at the end state: the share of leg joints beyond the soft range of the ``joint_limits`` reward term (0.9 of
+each range) and that term's value, the summed excursion per robot [rad].
 
 Usage::
 
@@ -37,6 +39,7 @@ def probe(checkpoint: str, seconds: float, samples: int, seed: int) -> dict:
     from wqwarp.eval.loading import make_policy_runner
     from wqwarp.eval.rollout import evaluation_session, start_rollout
     from wqwarp.kernels.actions import residual_targets
+    from wqwarp.rl.rewards import soft_joint_limits
     from wqwarp.robot import constants as C
 
     runner = make_policy_runner(checkpoint, None, len(COMMANDS) * ROBOTS_PER_COMMAND, seed=seed)
@@ -51,9 +54,12 @@ def probe(checkpoint: str, seconds: float, samples: int, seed: int) -> dict:
         for _ in range(int(round(seconds / env.dt))):
             obs, _, _, _ = env.step(runner.policy(obs))
         mu = runner.policy(obs)
+        q_now = wp.to_torch(env.sim.actuated_q)[:, :12].cpu()  # where the joints are (the joint_limits term's input)
         ng = env.nominal
         gen = torch.Generator().manual_seed(seed)
         lo, hi = torch.tensor(C.LEG_JOINT_RANGES).T
+        soft_lo, soft_hi = (torch.tensor(b, dtype=torch.float32) for b in soft_joint_limits(0.9))
+        excursion = (soft_lo - q_now).clamp(min=0) + (q_now - soft_hi).clamp(min=0)
 
         def targets(mean: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
             """(S, N, 12) leg targets and (S, N, 12) raw foot actions of ``samples`` draws around ``mean``."""
@@ -81,6 +87,8 @@ def probe(checkpoint: str, seconds: float, samples: int, seed: int) -> dict:
             "ratio": applied / nominal if nominal > 0 else None,
             "foot_at_clip": float((cfg.foot_scale * foot[:, r].abs() >= cfg.foot_clip).float().mean()),
             "joint_target_at_range": float(((q[:, r] <= lo + 1e-4) | (q[:, r] >= hi - 1e-4)).float().mean()),
+            "joint_beyond_soft_limit": float((excursion[r] > 0).float().mean()),
+            "joint_limits_term_rad": float(excursion[r].sum(1).mean()),
             "foot_residual_abs_mean_m": float((cfg.foot_scale * mu[r, 4:16]).clamp(-cfg.foot_clip, cfg.foot_clip)
                                               .abs().mean()),
         }  # fmt: skip
@@ -117,11 +125,12 @@ def main(argv=None) -> int:
     print(f"noise escape probe of {args.checkpoint} (iteration {out['iteration']}), foot std "
           f"{sum(out['foot_std']) / 12:.3f}")  # fmt: skip
     print(f"{'command':<8} {'noise [rad]':>11} {'w/o posture':>11} {'ratio':>6} {'at clip':>8} {'at q lim':>8} "
-          f"{'posture':>8}")  # fmt: skip
+          f"{'posture':>8} {'q > soft':>8} {'excursion':>9}")  # fmt: skip
     for name, r in out["commands"].items():
         print(f"{name:<8} {r['joint_target_noise_rad']:>11.4f} {r['joint_target_noise_without_posture_rad']:>11.4f} "
               f"{r['ratio']:>6.2f} {r['foot_at_clip']:>8.1%} {r['joint_target_at_range']:>8.1%} "
-              f"{100 * r['foot_residual_abs_mean_m']:>6.1f}cm")  # fmt: skip
+              f"{100 * r['foot_residual_abs_mean_m']:>6.1f}cm {r['joint_beyond_soft_limit']:>8.1%} "
+              f"{r['joint_limits_term_rad']:>7.3f}rad")  # fmt: skip
     if args.json:
         from wqwarp.utils.io import write_text_atomic
 
