@@ -6,10 +6,10 @@ import contextlib
 import io
 
 
-def quiet_runner(cfg, steps_per_env: int = 24, log_dir: str | None = None, seed: int | None = None):
+def quiet_runner(cfg, steps_per_env: int = 24, log_dir: str | None = None, seed: int | None = None, train=None):
     """A ``WqRunner`` on a fresh env of the config ``cfg``, with rsl-rl's printout of the networks silenced. With
     ``seed``: ``cfg.seed = seed`` and ``torch.manual_seed(seed)`` before the env is built, as ``train/ppo_newton.py``
-    does."""
+    does. ``train``: the PPO settings (default ``TrainConfig(num_steps_per_env=steps_per_env)``)."""
     import torch
 
     from wqwarp.rl.config import TrainConfig
@@ -21,22 +21,29 @@ def quiet_runner(cfg, steps_per_env: int = 24, log_dir: str | None = None, seed:
         torch.manual_seed(seed)
     env = WheeledGo1Env(cfg)
     with contextlib.redirect_stdout(io.StringIO()):
-        return WqRunner(env, TrainConfig(num_steps_per_env=steps_per_env).rsl_rl_dict(), log_dir=log_dir,
-                        device="cpu")  # fmt: skip
+        train = train or TrainConfig(num_steps_per_env=steps_per_env)
+        return WqRunner(env, train.rsl_rl_dict(), log_dir=log_dir, device="cpu")
 
 
-def preset_runner(preset: str, num_envs: int, seed: int, steps_per_env: int = 24):
-    """:func:`quiet_runner` of preset ``preset`` with ``num_envs`` robots and seed ``seed``."""
+def preset_runner(preset: str, num_envs: int, seed: int, steps_per_env: int = 24, profile: str = "paper"):
+    """:func:`quiet_runner` of preset ``preset`` with the levers of ``profile`` (``wqwarp.rl.profiles``; default
+    none), ``num_envs`` robots and seed ``seed``."""
+    from wqwarp.cli.config_args import apply_overrides
+    from wqwarp.rl.config import TrainConfig
     from wqwarp.rl.presets import make_preset
+    from wqwarp.rl.profiles import profile_overrides
 
     cfg = make_preset(preset)
+    train = TrainConfig(num_steps_per_env=steps_per_env)
+    apply_overrides({"env": cfg, "train": train}, profile_overrides(profile, cfg))
     cfg.sim.num_envs = num_envs
-    return quiet_runner(cfg, steps_per_env, seed=seed)
+    return quiet_runner(cfg, steps_per_env, seed=seed, train=train)
 
 
-def first_iteration(preset: str, num_envs: int, seed: int, steps_per_env: int = 8):
-    """A runner of ``preset`` after one training iteration (rsl-rl's printout silenced)."""
-    runner = preset_runner(preset, num_envs, seed, steps_per_env)
+def first_iteration(preset: str, num_envs: int, seed: int, steps_per_env: int = 8, profile: str = "paper"):
+    """A runner of ``preset`` with the levers of ``profile`` after one training iteration (rsl-rl's printout
+    silenced)."""
+    runner = preset_runner(preset, num_envs, seed, steps_per_env, profile)
     with contextlib.redirect_stdout(io.StringIO()):
         runner.learn(1)
     return runner

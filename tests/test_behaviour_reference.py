@@ -1,6 +1,7 @@
 """The refactoring guard: the first training iteration of fixed seeds equals the one recorded before the package was
 restructured (main at bc08f71): rollout rewards, observations and actions, and the networks after the update
-(actor, critic, estimator, power predictor).
+(actor, critic, estimator, power predictor). The third case is the default main job's configuration (``ours`` with
+the ``omni`` levers of ``wqwarp.rl.profiles``), recorded when it became the default.
 
 ``python tests/test_behaviour_reference.py --record`` rewrites ``tests/data/first_iteration.npz``; do that only for a
 change that is meant to change behaviour, and say so in the commit."""
@@ -15,11 +16,16 @@ import numpy as np
 import pytest
 
 REFERENCE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "first_iteration.npz")
-CASES = (("ours", 5), ("baseline", 7))
+CASES = (("ours", 5, "paper"), ("baseline", 7, "paper"), ("ours", 5, "omni"))
 
 
-def first_iteration(preset: str, seed: int) -> dict[str, np.ndarray]:
-    runner = helpers.first_iteration(preset, num_envs=8, seed=seed, steps_per_env=8)
+def label(preset: str, profile: str) -> str:
+    """The case's key prefix in the reference file (the paper's cases keep the names recorded at bc08f71)."""
+    return preset if profile == "paper" else f"{preset}+{profile}"
+
+
+def first_iteration(preset: str, seed: int, profile: str = "paper") -> dict[str, np.ndarray]:
+    runner = helpers.first_iteration(preset, num_envs=8, seed=seed, steps_per_env=8, profile=profile)
     env = runner.env
     st = runner.alg.storage
     out = {"rewards": st.rewards, "obs": st.observations["policy"], "privileged": st.observations["privileged"],
@@ -31,7 +37,8 @@ def first_iteration(preset: str, seed: int) -> dict[str, np.ndarray]:
         for k, v in net.state_dict().items():
             if v.is_floating_point():
                 out[f"{name}/{k}"] = v
-    return {f"{preset}/{k}": _fingerprint(k, v.detach().cpu().numpy().astype(np.float64)) for k, v in out.items()}
+    head = label(preset, profile)
+    return {f"{head}/{k}": _fingerprint(k, v.detach().cpu().numpy().astype(np.float64)) for k, v in out.items()}
 
 
 def _fingerprint(name: str, x: np.ndarray) -> np.ndarray:
@@ -44,11 +51,11 @@ def _fingerprint(name: str, x: np.ndarray) -> np.ndarray:
     return np.concatenate([[flat.sum(), (flat**2).sum()], proj @ flat])
 
 
-@pytest.mark.parametrize("preset,seed", CASES)
-def test_first_iteration_equals_the_recorded_one(preset, seed):
+@pytest.mark.parametrize("preset,seed,profile", CASES)
+def test_first_iteration_equals_the_recorded_one(preset, seed, profile):
     ref = np.load(REFERENCE)
-    now = first_iteration(preset, seed)
-    keys = sorted(k for k in ref.files if k.startswith(f"{preset}/"))
+    now = first_iteration(preset, seed, profile)
+    keys = sorted(k for k in ref.files if k.startswith(f"{label(preset, profile)}/"))
     assert keys == sorted(now), "the recorded and current runs hold different tensors"
     for k in keys:
         # float32 sums may round differently once a computation moves between torch and Warp; anything else differs
@@ -59,7 +66,7 @@ if __name__ == "__main__":
     if "--record" not in sys.argv:
         sys.exit("usage: python tests/test_behaviour_reference.py --record")
     data = {}
-    for preset, seed in CASES:
-        data.update(first_iteration(preset, seed))
+    for preset, seed, profile in CASES:
+        data.update(first_iteration(preset, seed, profile))
     np.savez_compressed(REFERENCE, **data)
     print(f"wrote {REFERENCE} ({len(data)} arrays)")

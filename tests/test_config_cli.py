@@ -28,7 +28,7 @@ PHYSICS = {"newton", "mujoco", "warp", "torch"}
 
 
 @pytest.mark.parametrize("module", ["wqwarp.rl.config", "wqwarp.sim.config", "wqwarp.rl.presets",
-                                    "wqwarp.cli.train_args"])  # fmt: skip
+                                    "wqwarp.rl.profiles", "wqwarp.cli.train_args"])  # fmt: skip
 def test_reading_a_config_imports_no_physics_engine_and_no_torch(module):
     code = (f"import {module}, sys; from wqwarp.rl.presets import make_preset; make_preset('ours').sim; "
             f"print(sorted({PHYSICS!r} & {{m.split('.')[0] for m in sys.modules}}))")  # fmt: skip
@@ -249,3 +249,39 @@ def test_the_algorithm_class_must_name_an_importable_wqppo(name, match):
         resolve_config(_parse("--train.algorithm-class", name))
     _, train = resolve_config(_parse("--train.algorithm-class", "wqwarp.rl.algorithm:KeptMeanActorsPPO"))
     assert train.rsl_rl_dict()["algorithm"]["class_name"] == "wqwarp.rl.algorithm:KeptMeanActorsPPO"
+
+
+def test_the_default_profile_sets_the_levers_each_method_can_use_and_paper_sets_none():
+    from wqwarp.rl.profiles import DEFAULT_PROFILE, OMNI_LEVERS, PROFILES
+
+    assert DEFAULT_PROFILE == "omni" and PROFILES["paper"].levers == ()
+    env, train = resolve_config(_parse())  # the default main job: ours with the omni levers, 15 M samples
+    assert env.gait.selection == "predictive" and env.gait.lateral_gain == 0.35
+    assert (env.predictor.criterion, env.predictor.label_source) == ("kinematic", "mean")
+    assert env.predictor.label_fraction == 0.03125 and env.predictor.kinematic_yaw_limit == 0.2
+    assert train.init_noise_std_groups == (0.5, 0.25, 0.5)
+    assert env.sim.num_envs * train.num_steps_per_env * train.max_iterations == pytest.approx(15.0e6, rel=1e-3)
+    for name in PRESETS:  # --profile paper: the preset itself, with the command's own budget
+        env, train = resolve_config(_parse("--preset", name, "--profile", "paper"))
+        ref = make_preset(name)
+        ref.sim.num_envs = 128
+        assert to_dict(env) == to_dict(ref) and train.init_noise_std_groups == ()
+    no_pred, np_train = resolve_config(_parse("--preset", "no_predictor"))  # a fixed gait: no predictor levers
+    assert no_pred.gait.lateral_gain == 0.35 and no_pred.predictor == PredictorConfig()
+    assert np_train.init_noise_std_groups == (0.5, 0.25, 0.5)
+    base, base_train = resolve_config(_parse("--preset", "baseline"))  # no nominal gait: no lever applies
+    ref = make_preset("baseline")
+    ref.sim.num_envs = 128
+    assert to_dict(base) == to_dict(ref) and base_train.init_noise_std_groups == ()
+    env, _ = resolve_config(_parse("--env.gait.lateral-gain", "0.2"))  # an option still wins over the profile
+    assert env.gait.lateral_gain == 0.2
+    fields = {o.path for name, cfg in default_roots().items() for _, _, leaves in config_options(name, cfg)
+              for o in leaves}  # fmt: skip
+    assert {lever.path for lever in OMNI_LEVERS} <= fields  # every lever is a command-line option too
+
+
+def test_an_unknown_profile_exits_2_with_one_line(capsys):
+    with pytest.raises(SystemExit) as e:
+        _parse("--profile", "fast")
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and err.count("\n") == 1 and "invalid choice: 'fast'" in err, err

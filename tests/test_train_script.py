@@ -58,6 +58,12 @@ def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
              "--log-dir", str(tmp_path / "other"), "--resume", str(log / "model_3.pt"))  # fmt: skip
     assert r.returncode == 2 and "another observation/action layout" in r.stderr
 
+    # Resuming with other levers than the checkpoint's (here the paper's, the run had the default profile) is refused.
+    r = _run("ppo_newton.py", "--profile", "paper", "--num-envs", "8", "--max-iterations", "1",
+             "--log-dir", str(log), "--resume", str(log / "model_3.pt"))  # fmt: skip
+    assert r.returncode == 2 and "env.gait.lateral_gain 0.35 (here: 0.0)" in r.stderr, r.stderr
+    assert r.stderr.count("\n") == 1 and not (log / "model_4.pt").exists()
+
     out_json = tmp_path / "eval.json"
     r = _run("evaluate.py", "--checkpoint", str(log / "model_3.pt"), "--tasks", "vx", "--num-envs", "4",
              "--seconds", "3", "--json", str(out_json))  # fmt: skip

@@ -68,6 +68,24 @@ def resolve_log_dir(args) -> str:
     return d
 
 
+def check_resumed_levers(path: str, cfg) -> None:
+    """Fail (exit 2) when the checkpoint was trained with other levers (``wqwarp.rl.profiles``) than this command
+    sets: resuming must not switch a lever on or off mid-run. An unreadable file is left to the runner's check."""
+    import torch
+
+    from wqwarp.rl.profiles import lever_differences
+
+    try:
+        ckpt = torch.load(path, weights_only=False, map_location="cpu")
+    except Exception:  # noqa: BLE001 - reported by WqRunner.load with the reason
+        return
+    saved = (ckpt.get("infos") or {}).get("env_cfg") if isinstance(ckpt, dict) else None
+    diffs = lever_differences(saved, cfg) if isinstance(saved, dict) else []
+    if diffs:
+        fail(f"--resume {path} was trained with other levers: {'; '.join(diffs)}; pass the --profile and options "
+             "it was trained with (its config.json has the command)")
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
     from wqwarp.cli.train_args import resolve_config, run_record
@@ -78,6 +96,8 @@ def main(argv=None) -> int:
         fail(str(e))
     if args.resume and not os.path.isfile(args.resume):
         fail(f"--resume: no such checkpoint {args.resume!r}")
+    if args.resume:
+        check_resumed_levers(args.resume, cfg)
     world = int(os.getenv("WORLD_SIZE", "1"))
     rank = int(os.getenv("RANK", "0"))
     device = cfg.sim.device

@@ -1,8 +1,8 @@
 """The command line of ``train/ppo_newton.py``: every field of the config tree (``--env.reward.energy -2e-5``,
 ``--env.sim.dt 0.001``, ``--train.max-iterations 10``) and the short flags that alias the most used ones
-(``--num-envs`` = ``--env.sim.num-envs``). The preset is applied first, then :data:`TRAIN_DEFAULTS`, then the
-options in command-line order (a later one wins), then the gaits tuned on the differentiable path
-(``--env.gait.tuned PATH``). No physics is imported here.
+(``--num-envs`` = ``--env.sim.num-envs``). The preset is applied first, then the lever profile
+(``--profile``, ``wqwarp.rl.profiles``), then :data:`TRAIN_DEFAULTS`, then the options in command-line order (a later
+one wins), then the gaits tuned on the differentiable path (``--env.gait.tuned PATH``). No physics is imported here.
 """
 
 from __future__ import annotations
@@ -26,12 +26,14 @@ from wqwarp.cli.config_args import (
 )
 from wqwarp.rl.config import EnvConfig, GaitConfig, TrainConfig, resolve_algorithm_class
 from wqwarp.rl.presets import PRESETS, make_preset, preset_help
+from wqwarp.rl.profiles import DEFAULT_PROFILE, PROFILES, profile_help, profile_overrides
 from wqwarp.rl.rewards import REWARD_TERMS
 
 TUNED_FLAG = "--env.gait.tuned"
 """Option that adds a gait tuned on the differentiable path to the run's library (the library itself is no flag)."""
-TRAIN_DEFAULTS: dict[str, object] = {"env.sim.num_envs": 128}
-"""Where the training command's defaults differ from the config's own (dotted path -> value)."""
+TRAIN_DEFAULTS: dict[str, object] = {"env.sim.num_envs": 128, "train.max_iterations": 4883}
+"""Where the training command's defaults differ from the config's own (dotted path -> value): 128 robots x 24 steps x
+4883 iterations = 15.0 M samples, the budget at which the default main job met issue 21's target."""
 DEFAULT_PRESET = "ours"
 
 
@@ -46,8 +48,9 @@ class Alias:
 
 ALIASES: tuple[Alias, ...] = (
     Alias("--num-envs", "env.sim.num_envs", "parallel robots (4096 on a GPU)"),
-    Alias("--max-iterations", "train.max_iterations", "PPO iterations of 24 steps per robot each (the paper: 4000; "
-          "63 min with 128 robots on 2 CPU cores, docs/archive/phase_residual_increment/train_increment_4000it.log)"),
+    Alias("--max-iterations", "train.max_iterations", "PPO iterations of 24 steps per robot each (the paper: 4000 "
+          "with 4096 robots; the default is 15 M samples with 128 robots, 44-85 min on 2 CPU cores, "
+          "docs/studies/omnidirectional/README.md)"),
     Alias("--device", "env.sim.device", "cpu (mujoco.rollout on all cores) or cuda:N (Newton SolverMuJoCo with CUDA "
           "graphs); under torchrun each process uses cuda:<LOCAL_RANK>"),
     Alias("--seed", "env.seed", "random seed (offset by the rank under torchrun)"),
@@ -113,9 +116,12 @@ def tuned_gait_config(gait: GaitConfig, path: str) -> GaitConfig:
         raise ValueError(f"{TUNED_FLAG} {path!r}: {e}") from None
 
 
-def default_roots(preset: str = DEFAULT_PRESET) -> dict[str, object]:
-    """The config trees of a run before its command-line options: ``preset``, then :data:`TRAIN_DEFAULTS`."""
-    roots: dict[str, object] = {"env": make_preset(preset), "train": TrainConfig()}
+def default_roots(preset: str = DEFAULT_PRESET, profile: str = DEFAULT_PROFILE) -> dict[str, object]:
+    """The config trees of a run before its command-line options: ``preset``, then the levers of ``profile`` that
+    apply to it, then :data:`TRAIN_DEFAULTS`."""
+    env = make_preset(preset)
+    roots: dict[str, object] = {"env": env, "train": TrainConfig()}
+    apply_overrides(roots, profile_overrides(profile, env))
     apply_overrides(roots, TRAIN_DEFAULTS)
     return roots
 
@@ -130,6 +136,10 @@ def build_parser(doc: str, prog: str = "ppo_newton.py") -> ArgumentParser:
     p.add_argument("--preset", default=DEFAULT_PRESET, choices=sorted(PRESETS),
                    help=f"method of the paper to train, applied before every other option (default: {DEFAULT_PRESET}; "
                         f"{preset_help()})")  # fmt: skip
+    p.add_argument("--profile", default=DEFAULT_PROFILE, choices=sorted(PROFILES),
+                   help=f"levers beyond the paper, applied after the preset and before every other option (default: "
+                        f"{DEFAULT_PROFILE}; {profile_help()}; wqwarp/rl/profiles.py lists each lever and where it was "
+                        "measured)")  # fmt: skip
     p.add_argument("--log-dir", default=None, help="output directory (default runs/<preset>_<date-time>); must not "
                    "hold checkpoints already, unless --resume points into it")  # fmt: skip
     p.add_argument("--resume", default=None,
@@ -167,8 +177,8 @@ def build_parser(doc: str, prog: str = "ppo_newton.py") -> ArgumentParser:
                    "those of the library gait it was tuned from (GaitConfig.with_tuned; repeatable, applied in order "
                    "after every other option; its h_b and h_s are not applied: set --env.gait.body-height / "
                    "--env.gait.swing-height)")  # fmt: skip
-    add_config_arguments(p, shown, note=f"Defaults shown are the {DEFAULT_PRESET} preset's with the training "
-                         "command's own; --preset replaces them.")  # fmt: skip
+    add_config_arguments(p, shown, note=f"Defaults shown are the {DEFAULT_PRESET} preset's with the {DEFAULT_PROFILE} "
+                         "profile and the training command's own; --preset and --profile replace them.")  # fmt: skip
     return p
 
 
@@ -183,10 +193,10 @@ def parse_train_args(doc: str, argv: Sequence[str] | None = None) -> argparse.Na
 
 
 def resolve_config(args: argparse.Namespace) -> tuple[EnvConfig, TrainConfig]:
-    """The run's configuration: ``args.preset``, then :data:`TRAIN_DEFAULTS`, then the command line's options; every
-    section checked (ValueError naming the field). Sets each alias's resolved value on ``args`` under its own name
-    (``args.num_envs``, ``args.dt``, ...) so that ``args`` records what the run used."""
-    roots = default_roots(args.preset)
+    """The run's configuration: ``args.preset``, then ``args.profile``, then :data:`TRAIN_DEFAULTS`, then the command
+    line's options; every section checked (ValueError naming the field). Sets each alias's resolved value on ``args``
+    under its own name (``args.num_envs``, ``args.dt``, ...) so that ``args`` records what the run used."""
+    roots = default_roots(args.preset, args.profile)
     overrides = config_overrides(args)
     apply_overrides(roots, overrides)
     if any(value_at(roots, path) < 1 for path in POSITIVE):

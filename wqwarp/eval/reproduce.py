@@ -44,6 +44,7 @@ from typing import TextIO
 from wqwarp.cli.args import ArgumentParser, repo_path
 from wqwarp.eval.timeline import fig6_segments
 from wqwarp.rl.presets import PRESET_ORDER, PRESETS
+from wqwarp.rl.profiles import DEFAULT_PROFILE, PROFILES, profile_help
 
 
 @dataclass(frozen=True)
@@ -188,9 +189,9 @@ def stage_train(args, budget: Budget, preset: str, seed: int) -> bool:
     final = final_checkpoint(args.work, preset, seed, budget)
     if os.path.isfile(final):
         return True
-    cmd = ["train/ppo_newton.py", "--preset", preset, "--seed", str(seed), "--num-envs", str(budget.num_envs),
-           "--device", args.device, "--log-dir", d, "--no-export", "--num-steps-per-env", str(budget.steps_per_env),
-           "--torch-threads", str(args.torch_threads)]  # fmt: skip
+    cmd = ["train/ppo_newton.py", "--preset", preset, "--profile", args.profile, "--seed", str(seed), "--num-envs",
+           str(budget.num_envs), "--device", args.device, "--log-dir", d, "--no-export", "--num-steps-per-env",
+           str(budget.steps_per_env), "--torch-threads", str(args.torch_threads)]  # fmt: skip
     if PRESETS[preset].predictive:
         cmd += ["--temperature-iterations", str(budget.temperature_iterations)]
     done = checkpoints(d)
@@ -243,6 +244,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--budget", choices=sorted(BUDGETS), default="smoke",
                    help="smoke (minutes, plumbing only), cpu (~2 h on 2 cores: 128 robots x 1000 iterations), gpu "
                    "(the paper's 4096 x 4000; use --device cuda:0). Default smoke")  # fmt: skip
+    p.add_argument("--profile", default=DEFAULT_PROFILE, choices=sorted(PROFILES),
+                   help=f"levers beyond the paper for every preset's training, as train/ppo_newton.py --profile "
+                        f"(default {DEFAULT_PROFILE}; {profile_help()})")  # fmt: skip
     p.add_argument("--seeds", type=int, default=1, help="seeds 1..N per preset (default 1; bars show their spread)")
     p.add_argument("--presets", default=",".join(PRESET_ORDER),
                    help=f"comma-separated presets (default all five: {','.join(PRESET_ORDER)})")  # fmt: skip
@@ -252,7 +256,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                    help="folder for RESULTS.md, results.json and the figures (default: docs for the cpu and gpu "
                    "budgets, <work>/report for smoke)")  # fmt: skip
     p.add_argument("--work", default=None,
-                   help="folder for training runs and raw evaluation files (default runs/reproduce_<budget>)")
+                   help="folder for training runs and raw evaluation files (default runs/reproduce_<budget>_<profile>: "
+                   "a finished stage is never redone, so each profile has its own)")  # fmt: skip
     p.add_argument("--device", default=None, help="cpu or cuda:N (default: the budget's, cpu except gpu)")
     p.add_argument("--torch-threads", type=int, default=1,
                    help="torch CPU threads of each training process (default 1, as train/ppo_newton.py; physics uses "
@@ -260,7 +265,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     args = p.parse_args(argv)
     budget = BUDGETS[args.budget]
     args.device = args.device or budget.device
-    args.work = args.work or repo_path("runs", f"reproduce_{args.budget}")
+    args.work = args.work or repo_path("runs", f"reproduce_{args.budget}_{args.profile}")
     args.out = args.out or (os.path.join(args.work, "report") if args.budget == "smoke" else repo_path("docs"))
     return args
 
@@ -298,7 +303,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     os.makedirs(args.work, exist_ok=True)
     write_text_atomic(os.path.join(args.work, "budget.json"),
-                      json.dumps({"budget": args.budget, **asdict(budget), "device": args.device}, indent=2))
+                      json.dumps({"budget": args.budget, **asdict(budget), "device": args.device,
+                                  "profile": args.profile}, indent=2))  # fmt: skip
     t0 = time.time()
     seeds = list(range(1, args.seeds + 1))
     failed = []

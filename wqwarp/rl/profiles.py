@@ -1,0 +1,112 @@
+"""Lever profiles: the settings beyond the paper that a method is trained with, named once and applied on top of
+its preset (``train/ppo_newton.py --profile``, ``train/reproduce.py --profile``).
+
+    omni   the levers that made the default main job track v_x, v_y and w within 15 M samples on this laptop (issue 21,
+           docs/studies/omnidirectional/README.md): the lateral feed-forward, the kinematic gait criterion with
+           mean-action labels, and a lower initial foot std. The training command's default.
+    paper  none: the paper's method as written (the presets alone).
+
+A profile is a list of :class:`Lever` (a dotted config path, its value, and which methods it applies to: a lever
+that a method cannot use, e.g. the gait's lateral feed-forward for the baseline without a nominal gait, is not set,
+so the method's config keeps the paper's value). The presets (``wqwarp.rl.presets``) stay the paper's methods; the
+checkpoint stores the resolved config, so evaluation needs no profile. No physics is imported here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from wqwarp.rl.config import EnvConfig
+
+
+def _nominal_legs(cfg: EnvConfig) -> bool:
+    return cfg.action.use_nominal_legs
+
+
+def _predictive(cfg: EnvConfig) -> bool:
+    return cfg.gait.selection == "predictive"
+
+
+@dataclass(frozen=True)
+class Lever:
+    """One setting of a profile."""
+
+    path: str
+    """Dotted path in the run's config roots (``env.gait.lateral_gain``, ``train.init_noise_std_groups``)."""
+    value: object
+    applies: Callable[[EnvConfig], bool]
+    """Whether the method (its preset's config) can use this setting."""
+    why: str
+    """Where its value was measured (one line, for ``--help`` and the docs)."""
+
+
+@dataclass(frozen=True)
+class Profile:
+    name: str
+    summary: str
+    levers: tuple[Lever, ...] = ()
+
+    def overrides(self, env: EnvConfig) -> dict[str, object]:
+        """Dotted path -> value of the levers that apply to the method of ``env`` (its preset's config)."""
+        return {lever.path: lever.value for lever in self.levers if lever.applies(env)}
+
+
+OMNI_LEVERS: tuple[Lever, ...] = (
+    Lever("env.gait.lateral_gain", 0.35, _nominal_legs,
+          "lateral foot-y stroke A = 0.35 s x v_y command (clip 0.12 m): v_y MSE 0.168 -> 0.062 (fixed trot, 12.3 M)"),
+    Lever("env.predictor.criterion", "kinematic", _predictive,
+          "gaits without swing are no candidates for lateral commands: the predictor stops picking driving for v_y"),
+    Lever("env.predictor.label_source", "mean", _predictive,
+          "labels from robots acting with the mean action: forecasts 0.8-1.2x the realised p_cost (paper's: 1.9-2.8x)"),
+    Lever("env.predictor.label_fraction", 0.03125, _predictive,
+          "4 of 128 robots label (1/8: both seeds took the noise-escape posture, v_y lost)"),
+    Lever("env.predictor.kinematic_yaw_limit", 0.2, _predictive,
+          "driving is no candidate for |w| > 0.2 rad/s: w tracked on both seeds, in legged gaits"),
+    Lever("train.init_noise_std_groups", (0.5, 0.25, 0.5), _nominal_legs,
+          "initial foot std 0.25 (phase, wheels 0.5): 0 of 6 runs took the noise-escape posture, 2 of 4 without"),
+)  # fmt: skip
+"""The levers of ``omni``, measured in docs/studies/omnidirectional/README.md (two seeds at 15 M samples: MSE v_x
+0.0014 / 0.0004, v_y 0.0405 / 0.0402, w 0.0249 / 0.0206, all upright)."""
+
+PROFILES: dict[str, Profile] = {p.name: p for p in (
+    Profile("omni", "the levers that met the omnidirectional target at 15 M samples (lateral feed-forward, kinematic "
+            "gait criterion with mean-action labels, foot std 0.25)", OMNI_LEVERS),
+    Profile("paper", "the paper's method as written: no lever beyond the preset"),
+)}  # fmt: skip
+"""Profile name -> :class:`Profile`."""
+DEFAULT_PROFILE = "omni"
+"""The training command's profile: the one whose default main job met issue 21's target."""
+
+
+def profile_help() -> str:
+    """``omni = ...; paper = ...`` for a ``--profile`` help text."""
+    return "; ".join(f"{p.name} = {p.summary}" for p in PROFILES.values())
+
+
+def profile_overrides(name: str, env: EnvConfig) -> dict[str, object]:
+    """The overrides of profile ``name`` for the method of ``env`` (ValueError naming the known profiles)."""
+    if name not in PROFILES:
+        raise ValueError(f"unknown profile {name!r}; known profiles: {', '.join(PROFILES)}")
+    return PROFILES[name].overrides(env)
+
+
+def _at(cfg: EnvConfig, path: str) -> object:
+    for part in path.split("."):
+        cfg = getattr(cfg, part)
+    return cfg
+
+
+def lever_differences(saved_env: dict, env: EnvConfig) -> list[str]:
+    """``"path saved (here: value)"`` for each env lever of any profile where a checkpoint's config (its
+    ``infos['env_cfg']``, filled by the migrations) and ``env`` differ: a resumed run must keep its levers. Empty when
+    the checkpoint is another method (``wqwarp.rl.presets.IDENTITY_FIELDS`` differ): the runner's checks report that."""
+    from wqwarp.rl.config import env_config_from_dict
+    from wqwarp.rl.presets import IDENTITY_FIELDS
+
+    saved = env_config_from_dict(saved_env)
+    if any(_at(saved, f) != _at(env, f) for f in IDENTITY_FIELDS):
+        return []
+    paths = dict.fromkeys(lv.path[4:] for p in PROFILES.values() for lv in p.levers if lv.path.startswith("env."))
+    return [f"env.{path} {_at(saved, path)!r} (here: {_at(env, path)!r})" for path in paths
+            if _at(saved, path) != _at(env, path)]  # fmt: skip
