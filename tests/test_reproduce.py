@@ -30,6 +30,9 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
         assert d["seed"] == 1 and d["config"]["sim"]["dt"] == 0.005 and d["wall_time_s"] > 0
         assert (res / f"{name}.json").is_file()
     summary, md = _load(res / "results.json"), (out / "RESULTS.md").read_text()
+    assert summary["profiles"] == ["omni"] and "Trained with `--profile omni`" in md  # the default levers, named
+    train_cfg = _load(work / "train" / "ours_s1" / "config.json")
+    assert "--profile omni" in train_cfg["command"] and train_cfg["env"]["gait"]["lateral_gain"] == 0.35
 
     # Tracking and energy: the page's numbers are the evaluation's.
     tracking = {r["task"]: r for r in _load(ev / "ours_s1_tracking.json")["results"]}

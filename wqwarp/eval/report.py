@@ -151,6 +151,15 @@ def _train_info(work: str, preset: str, seed: int) -> dict:
     return info
 
 
+def run_profile(work: str, preset: str, seed: int) -> str | None:
+    """The lever profile a reproduction's training ran with (its ``config.json``; ``paper`` for a run written before
+    the profiles existed, None without a record)."""
+    path = os.path.join(work, "train", f"{preset}_s{seed}", "config.json")
+    if not os.path.isfile(path):
+        return None
+    return _load(path).get("args", {}).get("profile", "paper")
+
+
 def write_report(work: str, out: str, budget_name: str, budget, presets: list[str], seeds: list[int],
                  wall_s: float) -> dict:  # fmt: skip
     """Write ``out/RESULTS.md`` and ``out/results/<budget>/`` (results.json, the evaluation JSONs, PNGs)."""
@@ -192,9 +201,10 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
     for name in copied:
         if name.endswith(".json"):
             eval_s += float(_load(os.path.join(res_dir, name)).get("wall_time_s") or 0.0)
+    profiles = sorted({x for p in presets for sd in seeds if (x := run_profile(work, p, sd))})
     summary = {"budget": budget_name, "sizes": asdict(budget), "presets": presets, "seeds": seeds,
-               "wall_time_s": wall_s, "evaluation_wall_time_s": eval_s, "training": training, "figures": figures,
-               **data}  # fmt: skip
+               "profiles": profiles, "wall_time_s": wall_s, "evaluation_wall_time_s": eval_s, "training": training,
+               "figures": figures, **data}  # fmt: skip
     write_result_json(os.path.join(res_dir, "results.json"), summary)
     md = render_markdown(summary, budget_name, budget, res_dir, out, work, git)
     tmp = os.path.join(out, "RESULTS.md.tmp")
@@ -264,6 +274,10 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
         f"{', '.join(map(str, summary['seeds']))}. Every number below comes from a JSON in `{rel}/` that records the "
         "command that produced it, its commit, seed, resolved configuration and wall time; `results.json` collects "
         "them.",
+        "",
+        f"**Levers.** Trained with `--profile {' / '.join(summary.get('profiles') or ['?'])}` (`wqwarp/rl/profiles.py`"
+        "): `paper` is each method as the paper specifies it; `omni` adds, to every method that can use them, the "
+        "levers beyond the paper that made the default main job track every command axis (docs/training.md).",
         "",
         f"**Budget.** Training: {budget.num_envs} robots x {budget.steps_per_env} steps x {budget.iterations} "
         f"iterations = {samples / 1e6:.2f} M samples per preset and seed, {100 * samples / paper_samples:.2f} % of the "
