@@ -114,7 +114,8 @@ def preset_help() -> str:
     return "; ".join(f"{p.name} = {p.summary}" for p in PRESETS.values())
 
 
-def _get(cfg: EnvConfig, path: str) -> object:
+def config_value(cfg: EnvConfig, path: str) -> object:
+    """The field at dotted ``path`` of an env config (``gait.selection``)."""
     node: object = cfg
     for part in path.split("."):
         node = getattr(node, part)
@@ -124,8 +125,8 @@ def _get(cfg: EnvConfig, path: str) -> object:
 def preset_differences(name: str, cfg: EnvConfig) -> list[str]:
     """Where ``cfg`` differs from preset ``name`` in :data:`IDENTITY_FIELDS`, as ``"path value (preset x: value)"``."""
     ref = make_preset(name)
-    return [f"{k} {_get(cfg, k)!r} (preset {name}: {_get(ref, k)!r})" for k in IDENTITY_FIELDS
-            if _get(ref, k) != _get(cfg, k)]  # fmt: skip
+    return [f"{k} {config_value(cfg, k)!r} (preset {name}: {config_value(ref, k)!r})" for k in IDENTITY_FIELDS
+            if config_value(ref, k) != config_value(cfg, k)]  # fmt: skip
 
 
 def infer_preset(cfg: EnvConfig) -> str | None:

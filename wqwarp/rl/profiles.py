@@ -91,22 +91,16 @@ def profile_overrides(name: str, env: EnvConfig) -> dict[str, object]:
     return PROFILES[name].overrides(env)
 
 
-def _at(cfg: EnvConfig, path: str) -> object:
-    for part in path.split("."):
-        cfg = getattr(cfg, part)
-    return cfg
-
-
 def lever_differences(saved_env: dict, env: EnvConfig) -> list[str]:
     """``"path saved (here: value)"`` for each env lever of any profile where a checkpoint's config (its
     ``infos['env_cfg']``, filled by the migrations) and ``env`` differ: a resumed run must keep its levers. Empty when
     the checkpoint is another method (``wqwarp.rl.presets.IDENTITY_FIELDS`` differ): the runner's checks report that."""
     from wqwarp.rl.config import env_config_from_dict
-    from wqwarp.rl.presets import IDENTITY_FIELDS
+    from wqwarp.rl.presets import IDENTITY_FIELDS, config_value
 
     saved = env_config_from_dict(saved_env)
-    if any(_at(saved, f) != _at(env, f) for f in IDENTITY_FIELDS):
+    if any(config_value(saved, f) != config_value(env, f) for f in IDENTITY_FIELDS):
         return []
     paths = dict.fromkeys(lv.path[4:] for p in PROFILES.values() for lv in p.levers if lv.path.startswith("env."))
-    return [f"env.{path} {_at(saved, path)!r} (here: {_at(env, path)!r})" for path in paths
-            if _at(saved, path) != _at(env, path)]  # fmt: skip
+    return [f"env.{path} {config_value(saved, path)!r} (here: {config_value(env, path)!r})" for path in paths
+            if config_value(saved, path) != config_value(env, path)]  # fmt: skip
