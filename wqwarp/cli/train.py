@@ -2,7 +2,8 @@
 
 Examples::
 
-    python train/ppo_newton.py                                   # ours: predictive gait selection (4000 iterations)
+    python train/ppo_newton.py                                   # ours + the omni levers, 15 M samples (4883 it)
+    python train/ppo_newton.py --profile paper                   # the paper's method as written
     python train/ppo_newton.py --preset no_predictor --max-iterations 1500 --temperature-iterations 1000
     python train/ppo_newton.py --preset pmtg --num-envs 256 --max-iterations 2000
     python train/ppo_newton.py --resume runs/ours_20261126-0900/model_500.pt
