@@ -27,16 +27,13 @@ def quiet_runner(cfg, steps_per_env: int = 24, log_dir: str | None = None, seed:
 
 def preset_runner(preset: str, num_envs: int, seed: int, steps_per_env: int = 24, profile: str = "paper"):
     """:func:`quiet_runner` of preset ``preset`` with the levers of ``profile`` (``wqwarp.rl.profiles``; default
-    none), ``num_envs`` robots and seed ``seed``."""
-    from wqwarp.cli.config_args import apply_overrides
-    from wqwarp.rl.config import TrainConfig
-    from wqwarp.rl.presets import make_preset
-    from wqwarp.rl.profiles import profile_overrides
+    none), resolved as ``train/ppo_newton.py`` does (``default_roots``), with ``num_envs`` robots and seed ``seed``."""
+    from wqwarp.cli.train_args import default_roots
 
-    cfg = make_preset(preset)
-    train = TrainConfig(num_steps_per_env=steps_per_env)
-    apply_overrides({"env": cfg, "train": train}, profile_overrides(profile, cfg))
+    roots = default_roots(preset, profile)
+    cfg, train = roots["env"], roots["train"]
     cfg.sim.num_envs = num_envs
+    train.num_steps_per_env = steps_per_env
     return quiet_runner(cfg, steps_per_env, seed=seed, train=train)
 
 

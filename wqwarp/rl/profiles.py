@@ -38,7 +38,7 @@ class Lever:
     applies: Callable[[EnvConfig], bool]
     """Whether the method (its preset's config) can use this setting."""
     why: str
-    """Where its value was measured (one line, for ``--help`` and the docs)."""
+    """Where its value was measured (one line for the reader; docs/training.md and the study have the tables)."""
 
 
 @dataclass(frozen=True)
@@ -101,6 +101,7 @@ def lever_differences(saved_env: dict, env: EnvConfig) -> list[str]:
     saved = env_config_from_dict(saved_env)
     if any(config_value(saved, f) != config_value(env, f) for f in IDENTITY_FIELDS):
         return []
-    paths = dict.fromkeys(lv.path[4:] for p in PROFILES.values() for lv in p.levers if lv.path.startswith("env."))
+    paths = dict.fromkeys(lv.path.removeprefix("env.") for p in PROFILES.values() for lv in p.levers
+                          if lv.path.startswith("env."))  # fmt: skip
     return [f"env.{path} {config_value(saved, path)!r} (here: {config_value(env, path)!r})" for path in paths
             if config_value(saved, path) != config_value(env, path)]  # fmt: skip
