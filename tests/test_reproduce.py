@@ -66,6 +66,24 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
         assert c["predicted_winner"] == min(c["predicted_p_cost"], key=c["predicted_p_cost"].get)
         assert max(c["share_not_in_forced_gait"].values()) < 0.5  # each robot ran the gait forced on it
 
+    # A reproduction continued in another session without checkpoints: --import-from the results folder the report
+    # wrote takes every preset trained at this budget and profile as done; the page has the same numbers.
+    work2, out2 = tmp_path / "work2", tmp_path / "out2"
+    capsys.readouterr()
+    assert reproduce.main(["--budget", "smoke", "--presets", "ours,pmtg", "--work", str(work2), "--out", str(out2),
+                           "--import-from", str(res)]) == 0  # fmt: skip
+    assert "imported ours_s1" in capsys.readouterr().out
+    assert not list(work2.glob("train/*/model_*.pt"))  # nothing trained again
+    assert (work2 / "train" / "ours_s1" / reproduce.IMPORTED).is_file()
+    summary2 = _load(out2 / "results" / "smoke" / "results.json")
+    assert summary2["presets"] == summary["presets"] and summary2["profiles"] == ["omni"]
+    assert summary2["training"]["ours"]["1"]["wall_time_s"] == summary["training"]["ours"]["1"]["wall_time_s"]
+    budget = reproduce.BUDGETS["smoke"]
+    assert reproduce.import_mismatch(str(res), "ours_s1", budget, "omni") is None
+    assert "profile omni" in reproduce.import_mismatch(str(res), "ours_s1", budget, "paper")
+    longer = reproduce.Budget(**{**reproduce.asdict(budget), "iterations": 5})
+    assert "final is 4" in reproduce.import_mismatch(str(res), "ours_s1", longer, "omni")
+
     # A re-run redoes nothing that is there; a stage that cannot run is reported and the others go on.
     stamps = {p: p.stat().st_mtime_ns for p in ev.glob("*.json")}
     assert reproduce.main([*args, "--stages", "train,tracking,push,report"]) == 0

@@ -148,6 +148,8 @@ def _train_info(work: str, preset: str, seed: int) -> dict:
     if rows:
         info["wall_time_s"] = sum(r.get("wall_s") or 0.0 for r in rows)
         info["final_mean_reward"] = rows[-1].get("mean_reward")
+    elif summary := _load(os.path.join(d, "train_info.json")):  # imported from an earlier reproduction's report
+        info.update({k: summary[k] for k in ("wall_time_s", "final_mean_reward") if k in summary})
     return info
 
 
@@ -192,6 +194,9 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
             if os.path.isfile(os.path.join(base, "config.json")):
                 dst = os.path.join(res_dir, f"{p}_s{sd}_train_config.json")
                 shutil.copyfile(os.path.join(base, "config.json"), dst)
+            if training[p][sd]:  # what --import-from restores in a later session
+                with open(os.path.join(res_dir, f"{p}_s{sd}_train_info.json"), "w", encoding="utf-8") as f:
+                    json.dump(training[p][sd], f, indent=2)
             if os.path.isfile(base + ".log"):
                 with open(base + ".log", encoding="utf-8", errors="replace") as f:
                     text = "\n".join(line.split("\r")[-1] for line in f.read().splitlines())

@@ -4,7 +4,9 @@ each, and write the results page with its JSON and figures.
 Examples::
 
     python train/reproduce.py --budget smoke                      # plumbing check: minutes, meaningless numbers
-    python train/reproduce.py --budget cpu                        # ~2 h on 2 CPU cores, writes docs/RESULTS.md
+    python train/reproduce.py --budget cpu                        # ~4 h on 2 CPU cores, writes docs/RESULTS.md
+    python train/reproduce.py --budget cpu --presets ours,no_predictor        # one session's share of it ...
+    python train/reproduce.py --budget cpu --import-from docs/results/cpu     # ... and the rest in the next
     python train/reproduce.py --budget gpu --device cuda:0        # the paper's 4096 robots x 4000 iterations
     python train/reproduce.py --budget cpu --stages report        # rebuild the page from finished stages
 
@@ -83,15 +85,19 @@ BUDGETS = {
     "smoke": Budget(num_envs=8, iterations=2, temperature_iterations=2, eval_envs=4, eval_seconds=2.5, push_envs=4,
                     push_seconds=2.5, push_interval=1.0, sim2sim_envs=4, map_seconds=0.5, map_grid=2,
                     timeline_seconds=0.5, steps_per_env=8),
-    "cpu": Budget(num_envs=128, iterations=1000, temperature_iterations=700, eval_envs=64, eval_seconds=20.0,
-                  push_envs=32, push_seconds=31.0, push_interval=15.0, sim2sim_envs=32, map_seconds=4.0,
+    "cpu": Budget(num_envs=128, iterations=4883, temperature_iterations=2000, eval_envs=100, eval_seconds=20.0,
+                  push_envs=100, push_seconds=31.0, push_interval=7.5, sim2sim_envs=32, map_seconds=4.0,
                   map_grid=5, timeline_seconds=4.0),
     "gpu": Budget(num_envs=4096, iterations=4000, temperature_iterations=2000, eval_envs=1000, eval_seconds=60.0,
                   push_envs=1000, push_seconds=60.0, push_interval=15.0, sim2sim_envs=1000, map_seconds=4.0,
                   map_grid=5, timeline_seconds=4.0, device="cuda:0"),
 }  # fmt: skip
-"""``smoke`` checks the plumbing in minutes; ``cpu`` fits a 2-core machine in about 2 hours (1000 iterations x 128
-robots x 24 steps = 3.1 M samples per preset, 1/128 of the paper's 4096 x 24 x 4000); ``gpu`` is the paper's scale."""
+"""``smoke`` checks the plumbing in minutes; ``cpu`` is the default main job's budget (4883 iterations x 128 robots x
+24 steps = 15.0 M samples per preset, 3.8 % of the paper's 4096 x 24 x 4000: where the omnidirectional skill held,
+docs/studies/omnidirectional), about 45 min of training per preset alone on 2 CPU cores (75 min for two side by
+side), so the five presets span two sessions of a 3-hour machine (``--presets`` splits them, ``--import-from``
+joins them); its evaluation uses 100 robots per task and 4 pushes per robot (every 7.5 s in 31 s: the issue's
+"at least 100 robots and 4 pushes each" at half the paper's 60 s); ``gpu`` is the paper's scale."""
 
 EVAL_STAGES: dict[str, Callable[[Budget, str], dict]] = {
     "tracking": lambda b, preset: {"preset": preset, "tasks": "stand,vx,vy,wz", "num_envs": b.eval_envs,
@@ -182,12 +188,93 @@ def _report_status(label: str, ok: bool, log: str, t0: float, code: object = 1) 
     return ok
 
 
+IMPORTED = "imported.json"
+"""Marker in a run folder whose training was done by an earlier reproduction and imported (``--import-from``)."""
+
+
+def _read_json(path: str) -> dict | None:
+    if not os.path.isfile(path):
+        return None
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def import_mismatch(src: str, stem: str, budget: Budget, profile: str) -> str | None:
+    """Why the records of ``<stem>`` (``<preset>_s<seed>``) in the results folder ``src`` are not this budget's and
+    profile's (None when they are): robots, steps per robot and profile of the training, and the checkpoint
+    iteration every evaluation ran on."""
+    cfg = _read_json(os.path.join(src, f"{stem}_train_config.json")) or {}
+    a = cfg.get("args") or {}
+    want = {"num_envs": budget.num_envs, "num_steps_per_env": budget.steps_per_env}
+    for key, value in want.items():
+        if a.get(key) != value:
+            return f"trained with {key} {a.get(key)}, this budget has {value}"
+    if a.get("profile", "paper") != profile:
+        return f"trained with profile {a.get('profile', 'paper')}, this reproduction uses {profile}"
+    evals = sorted(glob.glob(os.path.join(src, f"{stem}_*.json")))
+    evals = [e for e in evals if not e.endswith(("_train_config.json", "_train_info.json"))]
+    if not evals:
+        return "no evaluation recorded"
+    for e in evals:
+        it = (_read_json(e) or {}).get("iteration")
+        if it != budget.iterations - 1:
+            return f"{os.path.basename(e)} evaluates iteration {it}, this budget's final is {budget.iterations - 1}"
+    return None
+
+
+def import_finished(src: str, work: str, budget: Budget, profile: str, presets: list[str],
+                    seeds: list[int]) -> list[str]:  # fmt: skip
+    """Take the finished stages of an earlier reproduction from the results folder ``src`` that its report wrote
+    (e.g. ``docs/results/cpu``) into ``work``, so that a reproduction longer than one machine session continues in
+    the next without the checkpoints: a preset and seed whose records match this budget and profile
+    (:func:`import_mismatch`) gets its evaluation JSONs and figures (those not already in ``work/eval``), its
+    training configuration, log and summary, and the :data:`IMPORTED` marker that stands in for its final checkpoint.
+    A run folder with checkpoints of its own is left alone. One line per preset and seed with records in ``src``."""
+    import shutil
+
+    lines = []
+    for p in presets:
+        for sd in seeds:
+            stem = f"{p}_s{sd}"
+            if not os.path.isfile(os.path.join(src, f"{stem}_train_config.json")):
+                continue
+            d = run_dir(work, p, sd)
+            if checkpoints(d):
+                lines.append(f"not imported {stem}: {d} has checkpoints of its own")
+                continue
+            if why := import_mismatch(src, stem, budget, profile):
+                lines.append(f"not imported {stem}: {why}")
+                continue
+            os.makedirs(d, exist_ok=True)
+            os.makedirs(os.path.join(work, "eval"), exist_ok=True)
+            taken = []
+            for f in sorted(glob.glob(os.path.join(src, f"{stem}_*"))):
+                name = os.path.basename(f)
+                if name == f"{stem}_train_config.json":
+                    dst = os.path.join(d, "config.json")
+                elif name == f"{stem}_train_info.json":
+                    dst = os.path.join(d, "train_info.json")
+                elif name == f"{stem}_train.log":
+                    dst = d + ".log"
+                elif name.endswith((".json", ".png")):
+                    dst = os.path.join(work, "eval", name)
+                else:
+                    continue
+                if not os.path.isfile(dst):
+                    shutil.copyfile(f, dst)
+                    taken.append(name)
+            with open(os.path.join(d, IMPORTED), "w", encoding="utf-8") as f:
+                json.dump({"from": os.path.abspath(src), "files": taken}, f, indent=2)
+            lines.append(f"imported {stem} from {src}: {len(taken)} file(s)")
+    return lines
+
+
 def stage_train(args, budget: Budget, preset: str, seed: int) -> bool:
     """Train ``preset`` with ``seed`` (``train/ppo_newton.py`` in a child process, its output in ``<run>.log``),
-    resuming an interrupted run; True when the final checkpoint is there."""
+    resuming an interrupted run; True when the final checkpoint is there, or the training was imported."""
     d = run_dir(args.work, preset, seed)
     final = final_checkpoint(args.work, preset, seed, budget)
-    if os.path.isfile(final):
+    if os.path.isfile(final) or os.path.isfile(os.path.join(d, IMPORTED)):
         return True
     cmd = ["train/ppo_newton.py", "--preset", preset, "--profile", args.profile, "--seed", str(seed), "--num-envs",
            str(budget.num_envs), "--device", args.device, "--log-dir", d, "--no-export", "--num-steps-per-env",
@@ -222,7 +309,9 @@ def stage_eval(args, budget: Budget, preset: str, seed: int, name: str) -> bool:
         return True
     ckpt = final_checkpoint(args.work, preset, seed, budget)
     if not os.path.isfile(ckpt):
-        print(f"  skip {name} of {preset} seed {seed}: no trained checkpoint {ckpt}")
+        imported = " (its training was imported without this stage)" if os.path.isfile(
+            os.path.join(run_dir(args.work, preset, seed), IMPORTED)) else ""  # fmt: skip
+        print(f"  skip {name} of {preset} seed {seed}: no trained checkpoint {ckpt}{imported}")
         return False
     opts = make_options(name, checkpoint=ckpt, device=args.device, seed=seed, **outputs,
                         **EVAL_STAGES[name](budget, preset))  # fmt: skip
@@ -242,7 +331,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     p.add_argument("--budget", choices=sorted(BUDGETS), default="smoke",
-                   help="smoke (minutes, plumbing only), cpu (~2 h on 2 cores: 128 robots x 1000 iterations), gpu "
+                   help="smoke (minutes, plumbing only), cpu (~4 h on 2 cores: 128 robots x 4883 iterations = 15 M "
+                   "samples per preset, the default main job's; split it over sessions with --presets and "
+                   "--import-from), gpu "
                    "(the paper's 4096 x 4000; use --device cuda:0). Default smoke")  # fmt: skip
     p.add_argument("--profile", default=DEFAULT_PROFILE, choices=sorted(PROFILES),
                    help=f"levers beyond the paper for every preset's training, as train/ppo_newton.py --profile "
@@ -258,6 +349,12 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--work", default=None,
                    help="folder for training runs and raw evaluation files (default runs/reproduce_<budget>_<profile>: "
                    "a finished stage is never redone, so each profile has its own)")  # fmt: skip
+    p.add_argument("--import-from", default=None, metavar="DIR",
+                   help="results folder of an earlier reproduction at this budget and profile (e.g. docs/results/cpu, "
+                   "as its report wrote it): presets and seeds recorded there with this budget's robots, steps, "
+                   "final iteration and profile are taken as trained and evaluated instead of redone, so a "
+                   "reproduction longer than one session continues in the next without its checkpoints; records of "
+                   "another budget or profile are listed and left alone")  # fmt: skip
     p.add_argument("--device", default=None, help="cpu or cuda:N (default: the budget's, cpu except gpu)")
     p.add_argument("--torch-threads", type=int, default=1,
                    help="torch CPU threads of each training process (default 1, as train/ppo_newton.py; physics uses "
@@ -301,7 +398,14 @@ def main(argv: list[str] | None = None) -> int:
     if problem := _device_problem(args.device):
         print(f"error: {problem}", file=sys.stderr)
         return 2
+    if args.import_from and not os.path.isdir(args.import_from):
+        print(f"error: --import-from {args.import_from}: no such folder", file=sys.stderr)
+        return 2
     os.makedirs(args.work, exist_ok=True)
+    if args.import_from:
+        seeds = list(range(1, args.seeds + 1))
+        for line in import_finished(args.import_from, args.work, budget, args.profile, presets, seeds):
+            print(line)
     write_text_atomic(os.path.join(args.work, "budget.json"),
                       json.dumps({"budget": args.budget, **asdict(budget), "device": args.device,
                                   "profile": args.profile}, indent=2))  # fmt: skip
