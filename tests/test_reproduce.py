@@ -105,3 +105,29 @@ def test_training_progress_reads_the_runs_metrics_not_its_console(tmp_path):
     (tmp_path / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows) + '{"iteration": 1')
     assert reproduce.training_progress(str(tmp_path), 100) == "iteration 11/100, ETA 0:02:58"  # 89 x 2 s
     assert reproduce.training_progress(str(tmp_path), 11) == "iteration 11/11, ETA 0:00:00"
+
+
+def test_report_checks_the_headline_targets_against_hand_numbers():
+    """The page's target lines (issue 22) compute their ratios from the collected numbers: 20 W against the fixed
+    trot's 40 W at 0.0011 against 0.001 MSE is 0.50x at 1.10x (met); 79 % legged on v_y misses 80 %; a forecast
+    1.25x the realised power misses 20 %."""
+    from wqwarp.eval.report import _target_checks
+
+    def stat(v):
+        return {"mean": v, "std": 0.0, "n": 1}
+
+    ours = {"vx": {"mean_p_cost": stat(20.0), "mse": stat(0.0011), "predicted_power_running": stat(25.0),
+                   "gait_usage": {"driving": 0.9, "trotting": 0.1}},
+            "vy": {"mean_p_cost": stat(30.0), "mse": stat(0.04), "predicted_power_running": stat(33.0),
+                   "gait_usage": {"driving": 0.21, "trotting": 0.39, "walking": 0.40}},
+            "stand": {"mean_p_cost": stat(9.5)}}  # fmt: skip
+    fixed = {"vx": {"mean_p_cost": stat(40.0), "mse": stat(0.001)}}
+    lines = _target_checks({"presets": {"ours": {"tracking": ours}, "no_predictor": {"tracking": fixed}}})
+    by = {line.split(":")[0]: line for line in lines}
+    assert "0.50x the fixed trot's 40.0 W at 1.10x its MSE" in by["- headline, v_x task"]
+    assert by["- headline, v_x task"].endswith("-> met")
+    assert "legged gaits 79 %" in by["- gait pattern, v_y task"] and by["- gait pattern, v_y task"].endswith("not met")
+    assert by["- gait pattern, v_x task"].endswith("-> met")
+    assert "(1.25x)" in by["- predictor, v_x task"] and by["- predictor, v_x task"].endswith("not met")
+    assert "(1.10x)" in by["- predictor, v_y task"] and by["- predictor, v_y task"].endswith("-> met")
+    assert by["- energy floor"].endswith("-> met")
