@@ -29,7 +29,8 @@ METRICS = ("mse", "mean_abs_error", "mean_p_cost", "mean_p_cost_legs", "mean_p_c
            "mean_p_joule", "cost_of_transport", "upright", "falls", "predicted_power_running")  # fmt: skip
 
 
-def _load(path: str) -> dict | None:
+def read_json(path: str) -> dict | None:
+    """A result or configuration JSON; None when the file is not there."""
     if not os.path.isfile(path):
         return None
     with open(path, encoding="utf-8") as f:
@@ -69,7 +70,7 @@ def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
         tracking, push, s2s = {}, {}, {}
         for s in seeds:
             files = {k: os.path.join(ev, f"{p}_s{s}_{k}.json") for k in ("tracking", "push", "sim2sim")}
-            t, pu, ss = (_load(files[k]) for k in ("tracking", "push", "sim2sim"))
+            t, pu, ss = (read_json(files[k]) for k in ("tracking", "push", "sim2sim"))
             entry["seeds"][s] = {k: os.path.relpath(v, work) for k, v in files.items() if os.path.isfile(v)}
             for k, d in (("tracking", t), ("push", pu)):
                 if d is None:
@@ -139,7 +140,7 @@ def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "v
 def _train_info(work: str, preset: str, seed: int) -> dict:
     d = os.path.join(work, "train", f"{preset}_s{seed}")
     info: dict = {}
-    cfg = _load(os.path.join(d, "config.json"))
+    cfg = read_json(os.path.join(d, "config.json"))
     if cfg:
         info["args"] = cfg.get("args")
     from wqwarp.rl.progress import read_metrics
@@ -148,7 +149,7 @@ def _train_info(work: str, preset: str, seed: int) -> dict:
     if rows:
         info["wall_time_s"] = sum(r.get("wall_s") or 0.0 for r in rows)
         info["final_mean_reward"] = rows[-1].get("mean_reward")
-    elif summary := _load(os.path.join(d, "train_info.json")):  # imported from an earlier reproduction's report
+    elif summary := read_json(os.path.join(d, "train_info.json")):  # imported from an earlier reproduction's report
         info.update({k: summary[k] for k in ("wall_time_s", "final_mean_reward") if k in summary})
     return info
 
@@ -156,10 +157,13 @@ def _train_info(work: str, preset: str, seed: int) -> dict:
 def run_profile(work: str, preset: str, seed: int) -> str | None:
     """The lever profile a reproduction's training ran with (its ``config.json``; ``paper`` for a run written before
     the profiles existed, None without a record)."""
-    path = os.path.join(work, "train", f"{preset}_s{seed}", "config.json")
-    if not os.path.isfile(path):
-        return None
-    return _load(path).get("args", {}).get("profile", "paper")
+    cfg = read_json(os.path.join(work, "train", f"{preset}_s{seed}", "config.json"))
+    return None if cfg is None else config_profile(cfg)
+
+
+def config_profile(cfg: dict) -> str:
+    """The lever profile of a training's ``config.json`` (``paper`` for one written before the profiles existed)."""
+    return (cfg.get("args") or {}).get("profile", "paper")
 
 
 def write_report(work: str, out: str, budget_name: str, budget, presets: list[str], seeds: list[int],
@@ -167,6 +171,7 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
     """Write ``out/RESULTS.md`` and ``out/results/<budget>/`` (results.json, the evaluation JSONs, PNGs)."""
     from dataclasses import asdict
 
+    from wqwarp.utils.io import write_text_atomic
     from wqwarp.utils.provenance import git_state, write_result_json
 
     git = git_state()  # before this report writes anything
@@ -195,8 +200,8 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
                 dst = os.path.join(res_dir, f"{p}_s{sd}_train_config.json")
                 shutil.copyfile(os.path.join(base, "config.json"), dst)
             if training[p][sd]:  # what --import-from restores in a later session
-                with open(os.path.join(res_dir, f"{p}_s{sd}_train_info.json"), "w", encoding="utf-8") as f:
-                    json.dump(training[p][sd], f, indent=2)
+                write_text_atomic(os.path.join(res_dir, f"{p}_s{sd}_train_info.json"),
+                                  json.dumps(training[p][sd], indent=2))  # fmt: skip
             if os.path.isfile(base + ".log"):
                 with open(base + ".log", encoding="utf-8", errors="replace") as f:
                     text = "\n".join(line.split("\r")[-1] for line in f.read().splitlines())
@@ -205,7 +210,7 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
     eval_s = 0.0
     for name in copied:
         if name.endswith(".json"):
-            eval_s += float(_load(os.path.join(res_dir, name)).get("wall_time_s") or 0.0)
+            eval_s += float(read_json(os.path.join(res_dir, name)).get("wall_time_s") or 0.0)
     profiles = sorted({x for p in presets for sd in seeds if (x := run_profile(work, p, sd))})
     summary = {"budget": budget_name, "sizes": asdict(budget), "presets": presets, "seeds": seeds,
                "profiles": profiles, "wall_time_s": wall_s, "evaluation_wall_time_s": eval_s, "training": training,
@@ -419,7 +424,7 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
                   "gait, and power per joint group.", "",
                   f"![timeline]({rel}/{summary['figures']['timeline']})"]  # fmt: skip
     if "energymap" in summary["figures"]:
-        em = _load(os.path.join(res_dir, summary["figures"]["energymap"].replace(".png", ".json")))
+        em = read_json(os.path.join(res_dir, summary["figures"]["energymap"].replace(".png", ".json")))
         agree = ""
         if em:
             bad, limit = em.get("cheapest_does_not_track", "?"), em.get("tracking_limit", "?")

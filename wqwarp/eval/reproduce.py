@@ -44,9 +44,11 @@ from dataclasses import asdict, dataclass
 from typing import TextIO
 
 from wqwarp.cli.args import ArgumentParser, repo_path
+from wqwarp.eval.report import config_profile, read_json, write_report
 from wqwarp.eval.timeline import fig6_segments
 from wqwarp.rl.presets import PRESET_ORDER, PRESETS
 from wqwarp.rl.profiles import DEFAULT_PROFILE, PROFILES, profile_help
+from wqwarp.utils.io import write_text_atomic
 
 
 @dataclass(frozen=True)
@@ -192,31 +194,24 @@ IMPORTED = "imported.json"
 """Marker in a run folder whose training was done by an earlier reproduction and imported (``--import-from``)."""
 
 
-def _read_json(path: str) -> dict | None:
-    if not os.path.isfile(path):
-        return None
-    with open(path, encoding="utf-8") as f:
-        return json.load(f)
-
-
 def import_mismatch(src: str, stem: str, budget: Budget, profile: str) -> str | None:
     """Why the records of ``<stem>`` (``<preset>_s<seed>``) in the results folder ``src`` are not this budget's and
     profile's (None when they are): robots, steps per robot and profile of the training, and the checkpoint
     iteration every evaluation ran on."""
-    cfg = _read_json(os.path.join(src, f"{stem}_train_config.json")) or {}
+    cfg = read_json(os.path.join(src, f"{stem}_train_config.json")) or {}
     a = cfg.get("args") or {}
     want = {"num_envs": budget.num_envs, "num_steps_per_env": budget.steps_per_env}
     for key, value in want.items():
         if a.get(key) != value:
             return f"trained with {key} {a.get(key)}, this budget has {value}"
-    if a.get("profile", "paper") != profile:
-        return f"trained with profile {a.get('profile', 'paper')}, this reproduction uses {profile}"
+    if (trained := config_profile(cfg)) != profile:
+        return f"trained with profile {trained}, this reproduction uses {profile}"
     evals = sorted(glob.glob(os.path.join(src, f"{stem}_*.json")))
     evals = [e for e in evals if not e.endswith(("_train_config.json", "_train_info.json"))]
     if not evals:
         return "no evaluation recorded"
     for e in evals:
-        it = (_read_json(e) or {}).get("iteration")
+        it = (read_json(e) or {}).get("iteration")
         if it != budget.iterations - 1:
             return f"{os.path.basename(e)} evaluates iteration {it}, this budget's final is {budget.iterations - 1}"
     return None
@@ -263,8 +258,8 @@ def import_finished(src: str, work: str, budget: Budget, profile: str, presets: 
                 if not os.path.isfile(dst):
                     shutil.copyfile(f, dst)
                     taken.append(name)
-            with open(os.path.join(d, IMPORTED), "w", encoding="utf-8") as f:
-                json.dump({"from": os.path.abspath(src), "files": taken}, f, indent=2)
+            write_text_atomic(os.path.join(d, IMPORTED),
+                              json.dumps({"from": os.path.abspath(src), "files": taken}, indent=2))  # fmt: skip
             lines.append(f"imported {stem} from {src}: {len(taken)} file(s)")
     return lines
 
@@ -384,8 +379,6 @@ def _device_problem(device: str) -> str | None:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the chosen stages for every preset and seed; 0 when all are done, 1 when some failed, 2 for bad input."""
-    from wqwarp.utils.io import write_text_atomic
-
     args = parse_args(argv)
     budget = BUDGETS[args.budget]
     presets = [x.strip() for x in args.presets.split(",") if x.strip()]
@@ -402,15 +395,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: --import-from {args.import_from}: no such folder", file=sys.stderr)
         return 2
     os.makedirs(args.work, exist_ok=True)
+    seeds = list(range(1, args.seeds + 1))
     if args.import_from:
-        seeds = list(range(1, args.seeds + 1))
         for line in import_finished(args.import_from, args.work, budget, args.profile, presets, seeds):
             print(line)
     write_text_atomic(os.path.join(args.work, "budget.json"),
                       json.dumps({"budget": args.budget, **asdict(budget), "device": args.device,
                                   "profile": args.profile}, indent=2))  # fmt: skip
     t0 = time.time()
-    seeds = list(range(1, args.seeds + 1))
     failed = []
     for stage in [s for s in stages if s != "report"]:
         for preset in presets:
@@ -420,8 +412,6 @@ def main(argv: list[str] | None = None) -> int:
                 if not ok:
                     failed.append(f"{stage} {preset} seed {seed}")
     if "report" in stages:
-        from wqwarp.eval.report import write_report
-
         write_report(args.work, args.out, args.budget, budget, presets, seeds, wall_s=time.time() - t0)
         print(f"wrote {os.path.join(args.out, 'RESULTS.md')}")
     if failed:
