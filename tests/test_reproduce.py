@@ -65,6 +65,13 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
         assert set(c["measured_p_cost"]) == {"driving", "trotting", "walking"}
         assert c["predicted_winner"] == min(c["predicted_p_cost"], key=c["predicted_p_cost"].get)
         assert max(c["share_not_in_forced_gait"].values()) < 0.5  # each robot ran the gait forced on it
+    # The nominal gait with zero residual on stand and v_x (the energy targets' floor), for Ours only.
+    nom = _load(ev / "ours_s1_nominal.json")
+    assert nom["zero_residual"] and nom["forced_gait"] == "driving" and "--zero-residual" in nom["command"]
+    assert [r["task"] for r in nom["results"]] == ["stand", "vx"] and not (ev / "pmtg_s1_nominal.json").exists()
+    assert summary["presets"]["ours"]["nominal"]["vx"]["mean_p_cost"]["mean"] == pytest.approx(
+        nom["results"][1]["mean_p_cost"])  # fmt: skip
+    assert "residual's energy, v_x task" in md and "| Ours, nominal gait alone | vx |" in md
 
     # A reproduction continued in another session without checkpoints: --import-from the results folder the report
     # wrote takes every preset trained at this budget and profile as done; the page has the same numbers.
@@ -83,6 +90,9 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     assert "profile omni" in reproduce.import_mismatch(str(res), "ours_s1", budget, "paper")
     longer = reproduce.Budget(**{**reproduce.asdict(budget), "iterations": 5})
     assert "final is 4" in reproduce.import_mismatch(str(res), "ours_s1", longer, "omni")
+    nominal = _load(res / "ours_s1_nominal.json")  # the nominal gait alone holds for any checkpoint of its config
+    (res / "ours_s1_nominal.json").write_text(json.dumps({**nominal, "iteration": 0}))
+    assert reproduce.import_mismatch(str(res), "ours_s1", budget, "omni") is None
 
     # A re-run redoes nothing that is there; a stage that cannot run is reported and the others go on.
     stamps = {p: p.stat().st_mtime_ns for p in ev.glob("*.json")}
@@ -107,10 +117,12 @@ def test_training_progress_reads_the_runs_metrics_not_its_console(tmp_path):
     assert reproduce.training_progress(str(tmp_path), 11) == "iteration 11/11, ETA 0:00:00"
 
 
-def test_report_checks_the_headline_targets_against_hand_numbers():
+def test_report_checks_the_headline_targets_against_hand_numbers(tmp_path):
     """The page's target lines (issue 22) compute their ratios from the collected numbers: 20 W against the fixed
     trot's 40 W at 0.0011 against 0.001 MSE is 0.50x at 1.10x (met); 79 % legged on v_y misses 80 %; a forecast
-    1.25x the realised power misses 20 %."""
+    1.25x the realised power misses 20 %; 9.5 W standing against the zero-residual gait's 3 W is 3.17x (misses
+    1.3x), 20 W on v_x against its 16 W 1.25x (met); the energy map's driving cell at (1, 0, 0) with 30 W at squared
+    error 0.02 misses the driving floor (|v_x - 1| 0.14 m/s), with 0.005 meets it."""
     from wqwarp.eval.report import _target_checks
 
     def stat(v):
@@ -122,8 +134,27 @@ def test_report_checks_the_headline_targets_against_hand_numbers():
                    "gait_usage": {"driving": 0.21, "trotting": 0.39, "walking": 0.40}},
             "stand": {"mean_p_cost": stat(9.5)}}  # fmt: skip
     fixed = {"vx": {"mean_p_cost": stat(40.0), "mse": stat(0.001)}}
-    lines = _target_checks({"presets": {"ours": {"tracking": ours}, "no_predictor": {"tracking": fixed}}})
+    nominal = {"stand": {"mean_p_cost": stat(3.0), "mse": stat(0.0001)},
+               "vx": {"mean_p_cost": stat(16.0), "mse": stat(0.002)}}  # fmt: skip
+    ours["vx"]["mse"], ours["stand"]["mse"] = stat(0.0011), stat(0.0002)
+    summary = {"presets": {"ours": {"tracking": ours, "nominal": nominal}, "no_predictor": {"tracking": fixed}},
+               "figures": {"energymap": "ours_s1_energymap.png"}}  # fmt: skip
+    cells = [{"command": [0.5, 0.0, 0.0], "measured_p_cost": {"driving": 1.0}, "sq_velocity_error": {"driving": 0.0}},
+             {"command": [1.0, 0.0, 0.0], "measured_p_cost": {"driving": 30.0, "walking": 90.0},
+              "sq_velocity_error": {"driving": 0.02, "walking": 0.3}}]  # fmt: skip
+    (tmp_path / "ours_s1_energymap.json").write_text(json.dumps({"cells": cells}))
+    lines = _target_checks(summary, str(tmp_path))
     by = {line.split(":")[0]: line for line in lines}
+    assert "30.0 W at squared speed error 0.0200" in by["- driving floor"]
+    assert by["- driving floor"].endswith("not met")
+    assert "3.17x the nominal driving gait's 3.0 W" in by["- residual's energy, stand task"]
+    assert by["- residual's energy, stand task"].endswith("not met")
+    assert "1.25x the nominal driving gait's 16.0 W" in by["- residual's energy, v_x task"]
+    assert by["- residual's energy, v_x task"].endswith("-> met")
+    cells[1]["sq_velocity_error"]["driving"] = 0.005
+    (tmp_path / "ours_s1_energymap.json").write_text(json.dumps({"cells": cells}))
+    assert _target_checks(summary, str(tmp_path))[-3].endswith("-> met")
+    assert not any(x.startswith("- driving floor") for x in _target_checks(summary))  # no results folder given
     assert "0.50x the fixed trot's 40.0 W at 1.10x its MSE" in by["- headline, v_x task"]
     assert by["- headline, v_x task"].endswith("-> met")
     assert "legged gaits 79 %" in by["- gait pattern, v_y task"] and by["- gait pattern, v_y task"].endswith("not met")

@@ -15,7 +15,9 @@ per evaluation protocol (``wqwarp.eval.protocols``): ``tracking`` (stand, v_x, v
 cost of transport), ``push`` (Table III), ``sim2sim`` (the ``ours`` checkpoints under the paper's dt 0.001 x 20 and
 under the authors' joint model, deltas against the training physics), ``timeline`` (the paper's Fig. 6: one robot,
 stand -> forward -> rotate -> lateral), ``energymap`` (per gait measured and predicted power over a (v_x, v_y) and a
-(v_x, w) grid, and the winning gait) and ``report`` (``RESULTS.md``, ``results.json``, PNGs).
+(v_x, w) grid, and the winning gait), ``nominal`` (the ``ours`` configuration's nominal driving gait with zero
+residual on the stand and v_x tasks: the floor its energy targets compare the policy with) and ``report``
+(``RESULTS.md``, ``results.json``, PNGs).
 
 Training runs ``train/ppo_newton.py`` in a child process (its progress on a terminal read from the run's
 ``metrics.jsonl``, never from its console); each evaluation calls its protocol in this process. Every
@@ -110,13 +112,19 @@ EVAL_STAGES: dict[str, Callable[[Budget, str], dict]] = {
                                   "seconds": b.eval_seconds},
     "timeline": lambda b, preset: {"segments": fig6_segments(b.timeline_seconds), "robots": 1},
     "energymap": lambda b, preset: {"seconds": b.map_seconds, "grid": b.map_grid},
+    "nominal": lambda b, preset: {"preset": preset, "tasks": "stand,vx", "num_envs": b.eval_envs,
+                                  "seconds": b.eval_seconds, "force_gait": "driving", "zero_residual": True},
 }  # fmt: skip
-"""Evaluation stage (a protocol of ``wqwarp.eval.protocols.PROTOCOLS``) -> its options at a budget for a preset."""
+"""Evaluation stage -> its options at a budget for a preset; the stage runs the protocol of the same name in
+``wqwarp.eval.protocols.PROTOCOLS`` unless :data:`STAGE_PROTOCOL` names another."""
+STAGE_PROTOCOL = {"nominal": "tracking"}
+"""Stages that are a protocol under other options: ``nominal`` is the tracking protocol on the stand and v_x tasks
+with every action 0 and the driving gait forced (the nominal gait alone: the floor of the energy targets)."""
 STAGES = ("train", *EVAL_STAGES, "report")
 
-PREDICTIVE_ONLY = ("sim2sim", "timeline", "energymap")
-"""Stages run only for presets with ``Preset.selection_studies`` (the sim-to-sim check, and the figures of the gait
-selection)."""
+PREDICTIVE_ONLY = ("sim2sim", "timeline", "energymap", "nominal")
+"""Stages run only for presets with ``Preset.selection_studies`` (the sim-to-sim check, the figures of the gait
+selection, and the nominal gait the targets compare the policy with)."""
 
 
 def run_dir(work: str, preset: str, seed: int) -> str:
@@ -197,7 +205,8 @@ IMPORTED = "imported.json"
 def import_mismatch(src: str, stem: str, budget: Budget, profile: str) -> str | None:
     """Why the records of ``<stem>`` (``<preset>_s<seed>``) in the results folder ``src`` are not this budget's and
     profile's (None when they are): robots, steps per robot and profile of the training, and the checkpoint
-    iteration every evaluation ran on."""
+    iteration every evaluation ran on (but a zero-residual record's: the nominal gait alone, which no checkpoint's
+    weights change)."""
     cfg = read_json(os.path.join(src, f"{stem}_train_config.json")) or {}
     a = cfg.get("args") or {}
     want = {"num_envs": budget.num_envs, "num_steps_per_env": budget.steps_per_env}
@@ -211,7 +220,10 @@ def import_mismatch(src: str, stem: str, budget: Budget, profile: str) -> str | 
     if not evals:
         return "no evaluation recorded"
     for e in evals:
-        it = (read_json(e) or {}).get("iteration")
+        record = read_json(e) or {}
+        if record.get("zero_residual"):  # the nominal gait alone: any checkpoint of this configuration gives it
+            continue
+        it = record.get("iteration")
         if it != budget.iterations - 1:
             return f"{os.path.basename(e)} evaluates iteration {it}, this budget's final is {budget.iterations - 1}"
     return None
@@ -298,8 +310,9 @@ def stage_eval(args, budget: Budget, preset: str, seed: int, name: str) -> bool:
 
     if name in PREDICTIVE_ONLY and not PRESETS[preset].selection_studies:
         return True
+    proto = STAGE_PROTOCOL.get(name, name)
     out = os.path.join(args.work, "eval", f"{preset}_s{seed}_{name}")
-    outputs = {"json": out + ".json"} | ({"png": out + ".png"} if PROTOCOLS[name].draw else {})
+    outputs = {"json": out + ".json"} | ({"png": out + ".png"} if PROTOCOLS[proto].draw else {})
     if all(os.path.isfile(f) for f in outputs.values()):  # all of them, or the stage runs again
         return True
     ckpt = final_checkpoint(args.work, preset, seed, budget)
@@ -308,12 +321,13 @@ def stage_eval(args, budget: Budget, preset: str, seed: int, name: str) -> bool:
             os.path.join(run_dir(args.work, preset, seed), IMPORTED)) else ""  # fmt: skip
         print(f"  skip {name} of {preset} seed {seed}: no trained checkpoint {ckpt}{imported}")
         return False
-    opts = make_options(name, checkpoint=ckpt, device=args.device, seed=seed, **outputs,
+    opts = make_options(proto, checkpoint=ckpt, device=args.device, seed=seed, **outputs,
                         **EVAL_STAGES[name](budget, preset))  # fmt: skip
-    t0, label, log, command = time.time(), f"{name} {preset} seed {seed}", out + ".log", equivalent_command(name, opts)
+    t0, label, log = time.time(), f"{name} {preset} seed {seed}", out + ".log"
+    command = equivalent_command(proto, opts)
     with stage_log(log, label, command) as f:
         try:
-            run_protocol(name, opts, log=f, command=command)
+            run_protocol(proto, opts, log=f, command=command)
             ok = True
         except Exception:  # noqa: BLE001 - one failed stage must not stop the others; the log has the traceback
             f.write(traceback.format_exc())

@@ -136,6 +136,10 @@ class TrackingOptions(ProtocolOptions):
     force_gait: str | None = option(None, help="predictive presets, diagnostics: run this gait of the checkpoint's "
                                     "library instead of the selected one; the predictor's forecast for it is "
                                     "reported beside the realised power")  # fmt: skip
+    zero_residual: bool = option(False, help="diagnostics, presets with a nominal gait: every action 0 instead of "
+                                 "the policy's (the nominal gait with no residual); with --tasks stand,vx "
+                                 "--force-gait driving it measures the floor the learned residual's power is "
+                                 "compared with (train/reproduce.py stage nominal)")  # fmt: skip
 
     def __post_init__(self) -> None:
         if self.seconds is None:
@@ -187,12 +191,28 @@ def sim2sim(opts: TrackingOptions, log: TextIO = sys.stdout) -> dict:
     return _evaluate(opts, log, "sim2sim")
 
 
+def zero_policy(env):
+    """A policy whose every action is 0: with a residual action space, the nominal gait alone (no phase, foot or
+    wheel residual)."""
+    zeros = torch.zeros(env.num_envs, env.num_actions, device=env.device)
+
+    def policy(obs):
+        return zeros
+
+    return policy
+
+
 def _load(opts: TrackingOptions, phys: str):
     from wqwarp.eval.loading import make_policy_runner
 
     runner = make_policy_runner(opts.checkpoint, opts.preset, opts.num_envs, opts.device, dt=opts.dt,
                                 evaluation_selection="sample" if opts.sample_gaits else None, physics=phys,
                                 seed=opts.seed)  # fmt: skip
+    if opts.zero_residual:
+        if not runner.env.residual_mode:
+            raise ValueError(f"--zero-residual needs a preset with a nominal gait (a residual policy), not "
+                             f"{runner.preset}")  # fmt: skip
+        runner = dataclasses.replace(runner, policy=zero_policy(runner.env))
     predictive = runner.env.gait_selector.name == "predictive"
     for name, wanted in (("--sample-gaits", opts.sample_gaits), ("--force-gait", opts.force_gait)):
         if wanted and not predictive:
@@ -241,7 +261,8 @@ def _evaluate(opts: TrackingOptions, log: TextIO, protocol: str) -> dict:
     train = by_physics["train"]
     return {
         "checkpoint": opts.checkpoint, "preset": preset, "iteration": iteration, "protocol": protocol,
-        "forced_gait": opts.force_gait, "seed": opts.seed, "num_envs": opts.num_envs, "seconds": opts.seconds,
+        "forced_gait": opts.force_gait,
+        "zero_residual": opts.zero_residual, "seed": opts.seed, "num_envs": opts.num_envs, "seconds": opts.seconds,
         "push_interval": opts.push_interval, "dt": train["config"]["sim"]["dt"],
         "decimation": train["config"]["sim"]["decimation"], "wall_time_s": time.time() - t_start,
         "config": train["config"], "results": results,
@@ -260,7 +281,8 @@ def _progress(log: TextIO, task: str):
 def _print_header(log: TextIO, runner, opts: TrackingOptions, phys: str) -> None:
     cfg = runner.env.cfg
     scale = "" if opts.num_envs >= 1000 else " (the paper: 1000 robots; --paper-scale)"
-    print(f"\n{runner.preset} checkpoint (iteration {runner.iteration}), {opts.num_envs} robots{scale}, "
+    what = "zero residual (the nominal gait alone), configuration of the " if opts.zero_residual else ""
+    print(f"\n{runner.preset} {what}checkpoint (iteration {runner.iteration}), {opts.num_envs} robots{scale}, "
           f"{opts.seconds:g} s, physics {phys}: dt {cfg.sim.dt:g} s x {cfg.sim.decimation}, joints "
           f"{cfg.sim.joint_model}, friction {cfg.domain_rand.nominal_friction:g}, seed {opts.seed}", file=log)
     print(f"{'task':>9} {'MSE':>8} {'|err|':>8} {'p_cost [W]':>11} {'legs':>7} {'wheels':>7} {'CoT':>6} "
