@@ -46,3 +46,33 @@ def test_first_below_uses_the_trailing_mean():
 def test_time_to_skill_rejects_a_folder_that_is_not_a_run(tmp_path, capsys):
     assert time_to_skill.main([str(tmp_path)]) == 2
     assert "config.json" in capsys.readouterr().err
+
+
+def test_train_log_curves_average_the_progress_lines_of_a_console_log(tmp_path, capsys):
+    """tools/studies/train_log_curves.py reads train/ppo_newton.py's progress lines (carriage returns included, a
+    resumed run's repeated iteration: the last wins) and averages each window by hand: iterations 2-3 of window 2
+    at iteration 3 give reward (20 + 40) / 2 = 30 and err vy (0.3 + 0.1) / 2 = 0.2; err vy first below 0.25 at 3."""
+    import importlib
+
+    tool = importlib.import_module("tools.studies.train_log_curves")
+
+    def line(it, reward, vy, power):
+        return (f"[#---] {it}/4 ETA 0:00:0{it} | reward {reward:7.2f} | err vx 0.10 vy {vy:.2f} wz 0.50 | power "
+                f"{power:6.1f} W (legs {power - 10:5.1f}, wheels  10.0) |   1000 steps/s")  # fmt: skip
+
+    log = tmp_path / "run.log"
+    text = "header\n" + "\r".join([line(1, 10.0, 0.5, 100.0), line(2, 99.0, 0.9, 1.0), line(2, 20.0, 0.3, 80.0)])
+    log.write_text(text + "\n" + line(3, 40.0, 0.1, 60.0) + "\n" + line(4, -5.0, 0.1, 50.0) + "\n")
+    rows = tool.read_log(str(log))
+    assert sorted(rows) == [1, 2, 3, 4] and rows[2]["reward"] == 20.0 and rows[4]["reward"] == -5.0
+    w = tool.windowed(rows, 3, 2)
+    assert w["reward"] == pytest.approx(30.0) and w["err_vy"] == pytest.approx(0.2) and w["lines"] == 2
+    assert w["power"] == pytest.approx(70.0) and w["power_legs"] == pytest.approx(60.0)
+    assert tool.first_below(rows, "err_vy", 0.25, 2) == 3 and tool.first_below(rows, "err_vy", 0.05, 2) is None
+    out = tmp_path / "curves.json"
+    assert tool.main([str(log), "--at", "3,9", "--window", "2", "--skill", "vy=0.25", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())["logs"][str(log)]
+    assert data["first_below"] == {"vy": 3} and data["points"]["9"] is None
+    assert tool.main([str(log), "--skill", "roll=0.1"]) == 2 and "choose from vx" in capsys.readouterr().err
+    (tmp_path / "empty.log").write_text("nothing\n")
+    assert tool.main([str(tmp_path / "empty.log")]) == 2 and "no progress lines" in capsys.readouterr().err
