@@ -92,8 +92,9 @@ TABLE_II: tuple[RewardTerm, ...] = (
 
 BEYOND_PAPER: tuple[RewardTerm, ...] = (
     RewardTerm("p_cost", 0.0, "sum_j |tau_j| |qd_j| [W]: the paper's power cost (its evaluation metric, Sec. IV-A) "
-               "as a reward term, substep average; not in Table II (0: off). At -0.02 per W, the nominal gait's 25 W "
-               "at 1 m/s costs 0.5 per second against tracking's 7.", lambda x: x["p_cost"]),
+               "as a reward term, substep average; not in Table II (0: off). Training draws 100-400 W (exploration "
+               "noise, randomisation; the deterministic policy 11-64 W per task), so -0.01 per W costs 1-4 per "
+               "second of a reward that ends near 5 (docs/studies/residual_energy).", lambda x: x["p_cost"]),
     RewardTerm("joint_limits", 0.0, "sum_j max(0, l_j - q_j) + max(0, q_j - u_j) [rad] over the 12 leg joints, (l_j, "
                "u_j) the joint range shrunk about its centre to reward.soft_joint_limit of its width (legged_gym's "
                "dof_pos_limits: -10 with soft_dof_pos_limit 0.9 in legged_gym/envs/a1/a1_config.py); not in Table II "
