@@ -74,5 +74,12 @@ def test_train_log_curves_average_the_progress_lines_of_a_console_log(tmp_path, 
     data = json.loads(out.read_text())["logs"][str(log)]
     assert data["first_below"] == {"vy": 3} and data["points"]["9"] is None
     assert tool.main([str(log), "--skill", "roll=0.1"]) == 2 and "choose from vx" in capsys.readouterr().err
+    rows = [{"iteration": k, "mean_reward": 10.0 * k, "Metrics/vx_error": 0.1, "Metrics/vy_error": 0.4 / k,
+             "Metrics/wz_error": 0.5, "Metrics/p_cost": 100.0, "Metrics/p_cost_legs": 90.0,
+             "Metrics/p_cost_wheels": 10.0} for k in (10, 20)]  # fmt: skip
+    (tmp_path / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows) + '{"iteration": 3')
+    jl = tool.read_log(str(tmp_path / "metrics.jsonl"))
+    assert sorted(jl) == [10, 20] and jl[20]["err_vy"] == pytest.approx(0.02) and jl[10]["power_wheels"] == 10.0
+    assert tool.windowed(jl, 20, 20)["reward"] == pytest.approx(150.0)
     (tmp_path / "empty.log").write_text("nothing\n")
     assert tool.main([str(tmp_path / "empty.log")]) == 2 and "no progress lines" in capsys.readouterr().err

@@ -8,6 +8,7 @@ Usage::
     python tools/studies/train_log_curves.py docs/results/cpu/ours_s1_train.log runs/ab/ours_pcost_s1.log \\
         --at 500,1000,2000,3000,4000,4883 --window 100 --skill vy=0.15,wz=0.3 --json curves.json
 
+A ``.jsonl`` argument is read as a run's ``metrics.jsonl`` (or the every-10th-row copies the studies commit).
 Per log and ``--at`` iteration: the mean over the progress lines of the ``--window`` iterations up to it of the mean
 episode reward, the training tracking errors (|error| of v_x, v_y, w under the training command distribution, with
 exploration noise and domain randomisation) and the training power (p_cost over legs and wheels, likewise). Per
@@ -26,12 +27,30 @@ LINE = re.compile(r"\] (\d+)/(\d+) ETA [0-9:]+ \| reward\s+(-?[\d.]+) \| err vx 
 KEYS = ("reward", "err_vx", "err_vy", "err_wz", "power", "power_legs", "power_wheels")
 
 
+JSONL_KEYS = {"reward": "mean_reward", "err_vx": "Metrics/vx_error", "err_vy": "Metrics/vy_error",
+              "err_wz": "Metrics/wz_error", "power": "Metrics/p_cost", "power_legs": "Metrics/p_cost_legs",
+              "power_wheels": "Metrics/p_cost_wheels"}  # fmt: skip
+"""The same numbers in a run's ``metrics.jsonl`` (``wqwarp.rl.progress``; the studies commit every 10th row)."""
+
+
 def read_log(path: str) -> dict[int, dict[str, float]]:
-    """Iteration -> the progress line's numbers (the last line of an iteration wins; a resumed run continues)."""
+    """Iteration -> the progress line's numbers (the last line of an iteration wins; a resumed run continues); a
+    ``.jsonl`` file is read as a run's ``metrics.jsonl`` rows instead."""
     rows: dict[int, dict[str, float]] = {}
     with open(path, encoding="utf-8", errors="replace") as f:
-        for m in LINE.finditer(f.read().replace("\r", "\n")):
-            rows[int(m.group(1))] = dict(zip(KEYS, map(float, m.groups()[2:]), strict=True))
+        text = f.read()
+    if path.endswith(".jsonl"):
+        import json
+
+        for line in text.splitlines():
+            try:
+                r = json.loads(line)
+                rows[int(r["iteration"])] = {k: float(r[v]) for k, v in JSONL_KEYS.items()}
+            except (ValueError, KeyError, TypeError):
+                continue  # a line cut short, or a row without these metrics
+        return rows
+    for m in LINE.finditer(text.replace("\r", "\n")):
+        rows[int(m.group(1))] = dict(zip(KEYS, map(float, m.groups()[2:]), strict=True))
     return rows
 
 
