@@ -348,3 +348,26 @@ def test_the_nominal_gait_with_zero_residual_tracks_forward_commands_on_little_p
     with pytest.raises(ValueError, match="--zero-residual needs a preset with a nominal gait"):
         run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vx", num_envs=1, seconds=2.1,
                                               zero_residual=True), log)  # fmt: skip
+
+
+def test_a_protocol_prints_to_the_stdout_of_its_call_not_of_its_import(monkeypatch):
+    """``run_protocol`` without a log writes to ``sys.stdout`` as it is when called (a default bound at import
+    wrote to whatever stream was current then, e.g. a test's closed capture)."""
+    from dataclasses import dataclass
+
+    from wqwarp.eval import protocols
+    from wqwarp.eval.options import ProtocolOptions
+
+    @dataclass(kw_only=True)
+    class Opts(ProtocolOptions):
+        pass
+
+    def hello(opts, log):
+        print("hello from the protocol", file=log)
+        return {}
+
+    monkeypatch.setitem(protocols.PROTOCOLS, "hello", protocols.Protocol("hello", hello, Opts, "says hello"))
+    buf = io.StringIO()
+    monkeypatch.setattr("sys.stdout", buf)
+    protocols.run_protocol("hello", Opts(checkpoint="m.pt"))
+    assert "hello from the protocol" in buf.getvalue()

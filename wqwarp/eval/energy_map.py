@@ -145,8 +145,9 @@ class EnergyMapOptions(ProtocolOptions):
             raise ValueError("need --grid >= 2 and --seconds >= 0.2")
 
 
-def energy_map(opts: EnergyMapOptions, log: TextIO = sys.stdout) -> dict:
+def energy_map(opts: EnergyMapOptions, log: TextIO | None = None) -> dict:
     """Per command cell of :func:`grid_commands`: each gait's measured and predicted power and the winners."""
+    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     from wqwarp.eval.loading import checkpoint_gait_names, make_policy_runner
     from wqwarp.rl.config import to_dict
 

@@ -105,8 +105,9 @@ def probe(runner, commands: list[float], per_command: int, seconds: float, force
     return rows
 
 
-def lateral(opts: LateralOptions, log: TextIO = sys.stdout) -> dict:
+def lateral(opts: LateralOptions, log: TextIO | None = None) -> dict:
     """Run the probe with the selected gait and, with ``--per-gait`` on a predictive preset, each gait forced."""
+    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     from wqwarp.eval.loading import make_policy_runner
 
     opts.validate()

@@ -79,10 +79,11 @@ def equivalent_command(name: str, opts: ProtocolOptions) -> str:
     return command_line(f"train/evaluate.py --protocol {name}", opts, p.defaults)
 
 
-def run_protocol(name: str, opts: ProtocolOptions, log: TextIO = sys.stdout, command: str | None = None) -> dict:
+def run_protocol(name: str, opts: ProtocolOptions, log: TextIO | None = None, command: str | None = None) -> dict:
     """Run protocol ``name`` with ``opts``: validate them and check every output is writable (ValueError with a
     one-line message, before any work), run, write the JSON result (``opts.json``) and the figure (``png``) with
     ``command`` as their provenance (default :func:`equivalent_command`). Returns the result."""
+    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     from wqwarp.utils.io import output_problem
     from wqwarp.utils.provenance import write_result_json
 

@@ -176,18 +176,21 @@ class TrackingOptions(ProtocolOptions):
             raise ValueError("need --num-envs >= 1 and --seconds > 2 (the settling time)")
 
 
-def tracking(opts: TrackingOptions, log: TextIO = sys.stdout) -> dict:
+def tracking(opts: TrackingOptions, log: TextIO | None = None) -> dict:
     """Tracking error and power per task over the paper's command ranges (``--push`` adds pushes)."""
+    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     return _evaluate(opts, log, "tracking")
 
 
-def push(opts: TrackingOptions, log: TextIO = sys.stdout) -> dict:
+def push(opts: TrackingOptions, log: TextIO | None = None) -> dict:
     """Table III: pushes up to each of ``push_levels`` during the tasks stand, v_x, v_y, w in [-1, 1]."""
+    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     return _evaluate(opts, log, "push")
 
 
-def sim2sim(opts: TrackingOptions, log: TextIO = sys.stdout) -> dict:
+def sim2sim(opts: TrackingOptions, log: TextIO | None = None) -> dict:
     """Tracking under the training physics and under each of ``physics``, with the deltas."""
+    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     return _evaluate(opts, log, "sim2sim")
 
 
