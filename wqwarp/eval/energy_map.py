@@ -21,7 +21,6 @@ that gait under this policy, not the gait's best possible power. Nothing learns.
 
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass
 from typing import TextIO
@@ -145,9 +144,8 @@ class EnergyMapOptions(ProtocolOptions):
             raise ValueError("need --grid >= 2 and --seconds >= 0.2")
 
 
-def energy_map(opts: EnergyMapOptions, log: TextIO | None = None) -> dict:
+def energy_map(opts: EnergyMapOptions, log: TextIO) -> dict:
     """Per command cell of :func:`grid_commands`: each gait's measured and predicted power and the winners."""
-    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     from wqwarp.eval.loading import checkpoint_gait_names, make_policy_runner
     from wqwarp.rl.config import to_dict
 

@@ -10,7 +10,6 @@ selection it runs the selected gait and then each gait of the library forced (``
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from typing import TextIO
 
@@ -105,9 +104,8 @@ def probe(runner, commands: list[float], per_command: int, seconds: float, force
     return rows
 
 
-def lateral(opts: LateralOptions, log: TextIO | None = None) -> dict:
+def lateral(opts: LateralOptions, log: TextIO) -> dict:
     """Run the probe with the selected gait and, with ``--per-gait`` on a predictive preset, each gait forced."""
-    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     from wqwarp.eval.loading import make_policy_runner
 
     opts.validate()

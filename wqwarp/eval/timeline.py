@@ -9,7 +9,6 @@ Each segment is ``v_x,v_y,w_z:seconds`` (:func:`parse_segments`).
 from __future__ import annotations
 
 import math
-import sys
 import time
 from dataclasses import dataclass
 from typing import TextIO
@@ -124,10 +123,9 @@ class TimelineOptions(ProtocolOptions):
             raise ValueError("--robots must be >= 1")
 
 
-def timeline(opts: TimelineOptions, log: TextIO | None = None) -> dict:
+def timeline(opts: TimelineOptions, log: TextIO) -> dict:
     """Fig. 6: the checkpoint's robots through ``opts.segments``; the result holds the per-segment summaries and
     robot 0's series (``series_robot0``)."""
-    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     from wqwarp.eval.loading import make_policy_runner
     from wqwarp.rl.config import to_dict
 

@@ -10,7 +10,6 @@ robot recovers if its trunk never touches the ground. Sim-to-sim: the same tasks
 from __future__ import annotations
 
 import dataclasses
-import sys
 import time
 from dataclasses import dataclass
 from typing import TextIO
@@ -176,21 +175,18 @@ class TrackingOptions(ProtocolOptions):
             raise ValueError("need --num-envs >= 1 and --seconds > 2 (the settling time)")
 
 
-def tracking(opts: TrackingOptions, log: TextIO | None = None) -> dict:
+def tracking(opts: TrackingOptions, log: TextIO) -> dict:
     """Tracking error and power per task over the paper's command ranges (``--push`` adds pushes)."""
-    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     return _evaluate(opts, log, "tracking")
 
 
-def push(opts: TrackingOptions, log: TextIO | None = None) -> dict:
+def push(opts: TrackingOptions, log: TextIO) -> dict:
     """Table III: pushes up to each of ``push_levels`` during the tasks stand, v_x, v_y, w in [-1, 1]."""
-    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     return _evaluate(opts, log, "push")
 
 
-def sim2sim(opts: TrackingOptions, log: TextIO | None = None) -> dict:
+def sim2sim(opts: TrackingOptions, log: TextIO) -> dict:
     """Tracking under the training physics and under each of ``physics``, with the deltas."""
-    log = sys.stdout if log is None else log  # the stream of the call, not of the import
     return _evaluate(opts, log, "sim2sim")
 
 
