@@ -11,6 +11,11 @@ joint group: mean p_cost, mechanical and Joule power [W]; the base velocity achi
 running gait; each reward term per second (w_k r_k, the policy's own objective: does it pay the policy to keep its
 wheel residuals?). A front pair driving (positive torque) while the rear pair brakes (negative torque) at the same
 forward speed is power spent on wheel slip: the robot pays it and gains no speed. Nothing learns.
+
+``--noise`` adds the same pair with the actions PPO trains on: sampled from the policy's Gaussian (its learned std,
+seeded alike in both rollouts), once as sampled and once with the mean of the wheel actions removed (the noise
+kept). That tests whether the wheel offsets pay for the stochastic policy that PPO optimises though not for its
+mean: if the sampled reward is higher with the offsets, exploration noise is what holds them in the mean.
 """
 
 from __future__ import annotations
@@ -20,7 +25,11 @@ import sys
 from wqwarp.cli.args import doc_parser
 
 
-def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool) -> dict:
+def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool, sample: bool = False,
+            seed: int = 0) -> dict:
+    """One rollout at the held command ``vx``; ``zero_wheels`` removes the mean of the wheel actions (with
+    ``sample`` the Gaussian noise around it stays); ``sample`` draws the actions from the policy's distribution
+    (torch seeded with ``seed``, so two rollouts draw the same noise while their states agree)."""
     import numpy as np
     import torch
     import warp as wp
@@ -36,11 +45,21 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
     usage = torch.zeros(env.num_gaits)
     terms = torch.zeros(len(env.reward_names))
     fell = torch.zeros(n, dtype=torch.bool)
+    gen = torch.Generator(device="cpu").manual_seed(seed)
+    std = None
     with torch.no_grad():
         for k in range(int(round(seconds / env.dt))):
-            a = runner.policy(obs).clone()
+            a = runner.policy(obs).clone()  # the deterministic output: the mean action
             if zero_wheels:
                 a[:, 16:20] = 0.0
+            if sample:
+                if std is None:  # the learned std, which does not depend on the observation
+                    dist = getattr(runner.policy, "distribution", None)
+                    if dist is None:
+                        raise ValueError("the policy has no action distribution to sample")
+                    dist.update(a)
+                    std = dist.std.detach().clone()
+                a = a + std * torch.randn(a.shape, generator=gen).to(a.device)
             obs, _, dones, _ = env.step(a)
             fell |= dones.bool().cpu()
             if k * env.dt < settle:
@@ -61,6 +80,8 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool)
     out["gait_usage"] = {g: float(usage[i] / usage.sum()) for i, g in enumerate(env.gait_names)}
     out["fell"] = int(fell.sum())
     out["p_cost"] = out["p_cost_legs"] + out["p_cost_wheels"]
+    if sample:
+        out["action_std"] = [round(float(x), 4) for x in std[0]]
     return out
 
 
@@ -71,7 +92,11 @@ def main(argv=None) -> int:
     ap.add_argument("--vx", type=float, default=0.8, help="held forward command [m/s] (default 0.8)")
     ap.add_argument("--robots", type=int, default=8, help="robots (default 8; no domain randomisation)")
     ap.add_argument("--seconds", type=float, default=6.0, help="rollout length [s] (default 6, the first 2 settle)")
-    ap.add_argument("--json", default=None, help="write both rollouts' numbers here")
+    ap.add_argument("--noise", action="store_true",
+                    help="also roll out with sampled actions (the policy's learned std, as in training), with and "
+                         "without the mean wheel actions")  # fmt: skip
+    ap.add_argument("--seed", type=int, default=0, help="seed of the sampled actions (default 0)")
+    ap.add_argument("--json", default=None, help="write every rollout's numbers here")
     args = ap.parse_args(argv)
     if args.robots < 1 or args.seconds <= 2.0:
         print("error: need --robots >= 1 and --seconds > 2 (the settling time)", file=sys.stderr)
@@ -93,18 +118,22 @@ def main(argv=None) -> int:
         print(f"error: {runner.preset} has no wheel residuals (16 joint actions)", file=sys.stderr)
         return 2
     res = {}
-    for name, zero in (("policy", False), ("zero_wheel_residuals", True)):
-        res[name] = rollout(runner, args.vx, args.seconds, 2.0, zero)
+    arms = [("policy", False, False), ("zero_wheel_residuals", True, False)]
+    if args.noise:
+        arms += [("policy_sampled", False, True), ("zero_wheel_mean_sampled", True, True)]
+    for name, zero, sample in arms:
+        res[name] = rollout(runner, args.vx, args.seconds, 2.0, zero, sample, args.seed)
         r = res[name]
         print(f"{name:>21}: v_x {r['vx']:.3f} m/s | p_cost {r['p_cost']:6.1f} W (legs {r['p_cost_legs']:5.1f}, "
               f"wheels {r['p_cost_wheels']:5.1f}; wheels mech {r['p_mech_wheels']:5.1f}, Joule "
               f"{r['p_joule_wheels']:5.1f}) | wheel qd {r['wheel_qd']} | torque {r['wheel_torque']}")  # fmt: skip
-    rp, rz = res["policy"]["reward_per_s"], res["zero_wheel_residuals"]["reward_per_s"]
-    print("reward per second, policy -> zero wheel residuals: "
-          + ", ".join(f"{k} {rp[k]:+.3f} -> {rz[k]:+.3f}" for k in rp if rp[k] or rz[k]))  # fmt: skip
+    for a, b in zip(arms[::2], arms[1::2], strict=True):
+        rp, rz = res[a[0]]["reward_per_s"], res[b[0]]["reward_per_s"]
+        print(f"reward per second, {a[0]} -> {b[0]}: "
+              + ", ".join(f"{k} {rp[k]:+.3f} -> {rz[k]:+.3f}" for k in rp if rp[k] or rz[k]))  # fmt: skip
     out = {"checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration, "vx": args.vx,
-           "robots": args.robots, "seconds": args.seconds, "settle": 2.0, "wheel_order": ["FR", "FL", "RR", "RL"],
-           "results": res}  # fmt: skip
+           "robots": args.robots, "seconds": args.seconds, "settle": 2.0,
+           "noise_seed": args.seed if args.noise else None, "wheel_order": ["FR", "FL", "RR", "RL"], "results": res}  # fmt: skip
     if args.json:
         write_result_json(args.json, out)
     return 0
