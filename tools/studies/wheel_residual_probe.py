@@ -133,7 +133,8 @@ def main(argv=None) -> int:
               + ", ".join(f"{k} {rp[k]:+.3f} -> {rz[k]:+.3f}" for k in rp if rp[k] or rz[k]))  # fmt: skip
     out = {"checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration, "vx": args.vx,
            "robots": args.robots, "seconds": args.seconds, "settle": 2.0,
-           "noise_seed": args.seed if args.noise else None, "wheel_order": ["FR", "FL", "RR", "RL"], "results": res}  # fmt: skip
+           "noise_seed": args.seed if args.noise else None, "wheel_order": ["FR", "FL", "RR", "RL"],
+           "results": res}  # fmt: skip
     if args.json:
         write_result_json(args.json, out)
     return 0
