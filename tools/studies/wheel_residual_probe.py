@@ -8,14 +8,16 @@ Usage::
 
 Per wheel (FR, FL, RR, RL): mean velocity [rad/s], target [rad/s], torque [N m] and the policy's wheel action; per
 joint group: mean p_cost, mechanical and Joule power [W]; the base velocity achieved [m/s] and the share of each
-running gait; each reward term per second (w_k r_k, the policy's own objective: does it pay the policy to keep its
-wheel residuals?). A front pair driving (positive torque) while the rear pair brakes (negative torque) at the same
-forward speed is power spent on wheel slip: the robot pays it and gains no speed. Nothing learns.
+running gait; how the wheel actions vary (RMS about each robot's own time mean, and RMS of the step-to-step change;
+x the wheel scale in rad/s); each reward term per second (w_k r_k, the policy's own objective: does it pay the
+policy to keep its wheel residuals?). A front pair driving (positive torque) while the rear pair brakes (negative
+torque) at the same forward speed is power spent on wheel slip: the robot pays it and gains no speed. Nothing
+learns.
 
 ``--noise`` adds the same pair with the actions PPO trains on: sampled from the policy's Gaussian (its learned std,
-seeded alike in both rollouts), once as sampled and once with the mean of the wheel actions removed (the noise
-kept). That tests whether the wheel offsets pay for the stochastic policy that PPO optimises though not for its
-mean: if the sampled reward is higher with the offsets, exploration noise is what holds them in the mean.
+seeded alike in both rollouts), once as sampled and once with the policy's wheel output (the mean of its wheel
+actions) removed, the noise kept. That tests whether the wheel residuals pay for the stochastic policy that PPO
+optimises though not for its mean: if the sampled reward is higher with them, exploration noise holds them there.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool,
     obs = start_rollout(env, cmd, seconds)
     keys = ("p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs", "p_joule_wheels")
     acc: dict = {k: [] for k in (*keys, "wheel_qd", "wheel_target", "wheel_torque", "wheel_action", "vx")}
+    per_robot: list[torch.Tensor] = []  # (n, 4) wheel actions of each step after settling
     usage = torch.zeros(env.num_gaits)
     terms = torch.zeros(len(env.reward_names))
     fell = torch.zeros(n, dtype=torch.bool)
@@ -70,6 +73,7 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool,
             acc["wheel_target"].append(wp.to_torch(env.sim.wheel_qd_target).mean(0).tolist())
             acc["wheel_torque"].append(env.tv["joint_torque"][:, 12:].mean(0).tolist())
             acc["wheel_action"].append(a[:, 16:20].mean(0).tolist())
+            per_robot.append(a[:, 16:20].detach().cpu().clone())
             acc["vx"].append(float(env.base_state()["lin_vel"][:, 0].mean()))
             usage += torch.bincount(env.active_gait().cpu(), minlength=env.num_gaits).float()
             terms += wp.to_torch(env.reward_terms_wp).mean(0).cpu()
@@ -80,6 +84,14 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool,
     out["gait_usage"] = {g: float(usage[i] / usage.sum()) for i, g in enumerate(env.gait_names)}
     out["fell"] = int(fell.sum())
     out["p_cost"] = out["p_cost_legs"] + out["p_cost_wheels"]
+    w = torch.stack(per_robot)  # (T, n, 4)
+    scale = float(env.cfg.action.wheel_scale)
+    def rms(x: torch.Tensor) -> list[float]:
+        return np.round(x.pow(2).mean((0, 1)).sqrt().double().numpy(), 4).tolist()
+
+    out["wheel_action_rms_about_mean"] = rms(w - w.mean(0))
+    out["wheel_action_step_rms"] = rms(w[1:] - w[:-1])
+    out["wheel_scale_rad_s"] = scale
     if sample:
         out["action_std"] = [round(float(x), 4) for x in std[0]]
     return out
