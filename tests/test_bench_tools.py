@@ -83,3 +83,33 @@ def test_train_log_curves_average_the_progress_lines_of_a_console_log(tmp_path, 
     assert tool.windowed(jl, 20, 20)["reward"] == pytest.approx(150.0)
     (tmp_path / "empty.log").write_text("nothing\n")
     assert tool.main([str(tmp_path / "empty.log")]) == 2 and "no progress lines" in capsys.readouterr().err
+
+
+def test_headline_checks_read_records_of_any_runs_as_the_reproduction_page_does(tmp_path, capsys):
+    """tools/studies/headline_checks.py: tracking records of runs outside the reproduction get the page's checks.
+    Ours' two seeds (18 and 22 W, MSE 0.001 and 0.0012 on v_x) average to 20 W at 0.0011 against the fixed trot's
+    40 W at 0.001: 0.50x at 1.10x, met; bad input is one line and exit 2."""
+    import importlib
+
+    tool = importlib.import_module("tools.studies.headline_checks")
+
+    def record(path, vx, vy, wz):
+        rows = [{"task": t, "mse": m, "mean_p_cost": p, "gait_usage": {"driving": 1.0}, "command": [0.0, 0.0, 0.0]}
+                for t, (m, p) in (("vx", vx), ("vy", vy), ("wz", wz))]  # fmt: skip
+        path.write_text(json.dumps({"results": rows}))
+        return str(path)
+
+    o1 = record(tmp_path / "o1.json", (0.001, 18.0), (0.04, 30.0), (0.03, 25.0))
+    o2 = record(tmp_path / "o2.json", (0.0012, 22.0), (0.04, 30.0), (0.03, 25.0))
+    f1 = record(tmp_path / "f1.json", (0.001, 40.0), (0.01, 60.0), (0.01, 30.0))
+    out = tmp_path / "h.json"
+    assert tool.main(["--tracking", f"ours={o1},{o2}", "--tracking", f"no_predictor={f1}", "--json", str(out)]) == 0
+    targets = json.loads(out.read_text())["targets"]
+    line = next(x for x in targets if x.startswith("- headline"))
+    assert "Ours 20.0 W = 0.50x the fixed trot's 40.0 W at 1.10x its MSE" in line and line.endswith("-> met")
+    claims = json.loads(out.read_text())["fig5_claims"]
+    assert "- lowest mean power over the three tasks: paper Ours; here Ours (25.0 W) -> agrees" in claims
+    capsys.readouterr()
+    for bad in (["--tracking", "walker=x.json"], ["--tracking", f"ours={tmp_path / 'missing.json'}"], []):
+        assert tool.main(bad) == 2
+        assert capsys.readouterr().err.count("\n") == 1
