@@ -391,7 +391,9 @@ def test_the_wheel_probe_samples_the_training_noise_around_the_mean_with_and_wit
     assert probe.main(["--checkpoint", path, "--robots", "2", "--seconds", "2.6", "--noise", "--json",
                        str(out_json)]) == 0  # fmt: skip
     res = json.loads(out_json.read_text())["results"]
-    assert set(res) == {"policy", "zero_wheel_residuals", "policy_sampled", "zero_wheel_mean_sampled"}
+    assert set(res) == {"policy", "zero_wheel_residuals", "zero_leg_residuals", "nominal", "policy_sampled",
+                        "zero_wheel_mean_sampled"}
+    assert res["nominal"]["wheel_action"] == [0.0] * 4 and res["zero_leg_residuals"]["wheel_action"] != [0.0] * 4
     assert res["zero_wheel_residuals"]["wheel_action"] == [0.0, 0.0, 0.0, 0.0]
     std = res["policy_sampled"]["action_std"]
     assert len(std) == 20 and std == res["zero_wheel_mean_sampled"]["action_std"]

@@ -1,5 +1,8 @@
-"""Where a trained policy's wheel power goes: the same rollout with the policy's wheel residuals, and with them set
-to zero (wheels on the nominal velocities of Eq. 3), at a held forward command.
+"""Where a trained policy's wheel power goes: the same rollout with the policy's residuals, with its wheel residuals
+set to zero (wheels on the nominal velocities of Eq. 3), with its leg residuals set to zero (phase and feet on the
+nominal gait, the wheels the policy's) and with every residual zero (the nominal gait alone), at a held forward
+command. The wheels' power is not the wheel residuals' alone: the feet the policy places set where each wheel
+touches the ground.
 
 Usage::
 
@@ -26,19 +29,31 @@ import sys
 
 from wqwarp.cli.args import doc_parser
 
+ARMS = {"policy": ((), False), "zero_wheel_residuals": (("wheel",), False),
+        "zero_leg_residuals": (("phase", "foot"), False), "nominal": (("phase", "foot", "wheel"), False)}
+"""Rollout name -> (action groups set to zero, sampled): the policy; its wheel residuals zeroed (wheels on the
+nominal velocities, legs the policy's); its leg residuals zeroed (phase and feet nominal, wheels the policy's);
+every residual zeroed (the nominal gait alone, as ``train/evaluate.py --zero-residual``)."""
+NOISE_ARMS = {"policy_sampled": ((), True), "zero_wheel_mean_sampled": (("wheel",), True)}
+"""The ``--noise`` rollouts, compared with each other."""
 
-def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool, sample: bool = False,
+
+def rollout(runner, vx: float, seconds: float, settle: float, zero: tuple[str, ...] = (), sample: bool = False,
             seed: int = 0) -> dict:
-    """One rollout at the held command ``vx``; ``zero_wheels`` removes the mean of the wheel actions (with
-    ``sample`` the Gaussian noise around it stays); ``sample`` draws the actions from the policy's distribution
-    (torch seeded with ``seed``, so two rollouts draw the same noise while their states agree)."""
+    """One rollout at the held command ``vx``; the action groups ``zero`` (``wqwarp.rl.observations.action_groups``)
+    set to 0 (with ``sample`` the Gaussian noise around them stays); ``sample`` draws the actions from the
+    policy's distribution (torch seeded with ``seed``, so two rollouts draw the same noise while their states
+    agree)."""
     import numpy as np
     import torch
     import warp as wp
 
     from wqwarp.eval.rollout import start_rollout
+    from wqwarp.rl.observations import action_groups
 
     env = runner.env
+    groups = action_groups(env.num_actions)
+    wheels = groups["wheel"]
     n = env.num_envs
     cmd = torch.tensor([[vx, 0.0, 0.0]] * n)
     obs = start_rollout(env, cmd, seconds)
@@ -53,8 +68,8 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool,
     with torch.no_grad():
         for k in range(int(round(seconds / env.dt))):
             a = runner.policy(obs).clone()  # the deterministic output: the mean action
-            if zero_wheels:
-                a[:, 16:20] = 0.0
+            for g in zero:
+                a[:, groups[g]] = 0.0
             if sample:
                 if std is None:  # the learned std, which does not depend on the observation
                     dist = getattr(runner.policy, "distribution", None)
@@ -72,8 +87,8 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero_wheels: bool,
             acc["wheel_qd"].append(env.tv["actuated_qd"][:, 12:].mean(0).tolist())
             acc["wheel_target"].append(wp.to_torch(env.sim.wheel_qd_target).mean(0).tolist())
             acc["wheel_torque"].append(env.tv["joint_torque"][:, 12:].mean(0).tolist())
-            acc["wheel_action"].append(a[:, 16:20].mean(0).tolist())
-            per_robot.append(a[:, 16:20].detach().cpu().clone())
+            acc["wheel_action"].append(a[:, wheels].mean(0).tolist())
+            per_robot.append(a[:, wheels].detach().cpu().clone())
             acc["vx"].append(float(env.base_state()["lin_vel"][:, 0].mean()))
             usage += torch.bincount(env.active_gait().cpu(), minlength=env.num_gaits).float()
             terms += wp.to_torch(env.reward_terms_wp).mean(0).cpu()
@@ -130,18 +145,17 @@ def main(argv=None) -> int:
         print(f"error: {runner.preset} has no wheel residuals (16 joint actions)", file=sys.stderr)
         return 2
     res = {}
-    arms = [("policy", False, False), ("zero_wheel_residuals", True, False)]
-    if args.noise:
-        arms += [("policy_sampled", False, True), ("zero_wheel_mean_sampled", True, True)]
-    for name, zero, sample in arms:
+    arms = ARMS | (NOISE_ARMS if args.noise else {})
+    for name, (zero, sample) in arms.items():
         res[name] = rollout(runner, args.vx, args.seconds, 2.0, zero, sample, args.seed)
         r = res[name]
         print(f"{name:>21}: v_x {r['vx']:.3f} m/s | p_cost {r['p_cost']:6.1f} W (legs {r['p_cost_legs']:5.1f}, "
               f"wheels {r['p_cost_wheels']:5.1f}; wheels mech {r['p_mech_wheels']:5.1f}, Joule "
               f"{r['p_joule_wheels']:5.1f}) | wheel qd {r['wheel_qd']} | torque {r['wheel_torque']}")  # fmt: skip
-    for a, b in zip(arms[::2], arms[1::2], strict=True):
-        rp, rz = res[a[0]]["reward_per_s"], res[b[0]]["reward_per_s"]
-        print(f"reward per second, {a[0]} -> {b[0]}: "
+    pairs = [("policy", b) for b in list(ARMS)[1:]] + ([tuple(NOISE_ARMS)] if args.noise else [])
+    for a, b in pairs:
+        rp, rz = res[a]["reward_per_s"], res[b]["reward_per_s"]
+        print(f"reward per second, {a} -> {b}: "
               + ", ".join(f"{k} {rp[k]:+.3f} -> {rz[k]:+.3f}" for k in rp if rp[k] or rz[k]))  # fmt: skip
     out = {"checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration, "vx": args.vx,
            "robots": args.robots, "seconds": args.seconds, "settle": 2.0,
