@@ -100,13 +100,13 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero: tuple[str, .
     out["fell"] = int(fell.sum())
     out["p_cost"] = out["p_cost_legs"] + out["p_cost_wheels"]
     w = torch.stack(per_robot)  # (T, n, 4)
-    scale = float(env.cfg.action.wheel_scale)
+
     def rms(x: torch.Tensor) -> list[float]:
         return np.round(x.pow(2).mean((0, 1)).sqrt().double().numpy(), 4).tolist()
 
     out["wheel_action_rms_about_mean"] = rms(w - w.mean(0))
     out["wheel_action_step_rms"] = rms(w[1:] - w[:-1])
-    out["wheel_scale_rad_s"] = scale
+    out["wheel_scale_rad_s"] = float(env.cfg.action.wheel_scale)  # x the action RMS: rad/s
     if sample:
         out["action_std"] = [round(float(x), 4) for x in std[0]]
     return out
@@ -147,7 +147,11 @@ def main(argv=None) -> int:
     res = {}
     arms = ARMS | (NOISE_ARMS if args.noise else {})
     for name, (zero, sample) in arms.items():
-        res[name] = rollout(runner, args.vx, args.seconds, 2.0, zero, sample, args.seed)
+        try:
+            res[name] = rollout(runner, args.vx, args.seconds, 2.0, zero, sample, args.seed)
+        except ValueError as e:  # --noise on a policy without an action distribution
+            print(f"error: {e}", file=sys.stderr)
+            return 2
         r = res[name]
         print(f"{name:>21}: v_x {r['vx']:.3f} m/s | p_cost {r['p_cost']:6.1f} W (legs {r['p_cost_legs']:5.1f}, "
               f"wheels {r['p_cost_wheels']:5.1f}; wheels mech {r['p_mech_wheels']:5.1f}, Joule "
