@@ -29,6 +29,20 @@ import sys
 
 from wqwarp.cli.args import doc_parser
 
+
+def learned_std(policy, obs):
+    """The policy's action std (rsl-rl's Gaussian: a learned parameter, the same for every observation), shaped as
+    its actions on ``obs``; ValueError for a policy without an action distribution."""
+    import torch
+
+    dist = getattr(policy, "distribution", None)
+    if dist is None:
+        raise ValueError("the policy has no action distribution to sample")
+    with torch.no_grad():
+        dist.update(policy(obs))
+        return dist.std.detach().clone()
+
+
 ARMS = {"policy": ((), False), "zero_wheel_residuals": (("wheel",), False),
         "zero_leg_residuals": (("phase", "foot"), False), "nominal": (("phase", "foot", "wheel"), False)}
 """Rollout name -> (action groups set to zero, sampled): the policy; its wheel residuals zeroed (wheels on the
@@ -58,25 +72,19 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero: tuple[str, .
     cmd = torch.tensor([[vx, 0.0, 0.0]] * n)
     obs = start_rollout(env, cmd, seconds)
     keys = ("p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs", "p_joule_wheels")
-    acc: dict = {k: [] for k in (*keys, "wheel_qd", "wheel_target", "wheel_torque", "wheel_action", "vx")}
+    acc: dict = {k: [] for k in (*keys, "wheel_qd", "wheel_target", "wheel_torque", "vx")}
     per_robot: list[torch.Tensor] = []  # (n, 4) wheel actions of each step after settling
     usage = torch.zeros(env.num_gaits)
     terms = torch.zeros(len(env.reward_names))
     fell = torch.zeros(n, dtype=torch.bool)
     gen = torch.Generator(device="cpu").manual_seed(seed)
-    std = None
+    std = learned_std(runner.policy, obs) if sample else None
     with torch.no_grad():
         for k in range(int(round(seconds / env.dt))):
             a = runner.policy(obs).clone()  # the deterministic output: the mean action
             for g in zero:
                 a[:, groups[g]] = 0.0
-            if sample:
-                if std is None:  # the learned std, which does not depend on the observation
-                    dist = getattr(runner.policy, "distribution", None)
-                    if dist is None:
-                        raise ValueError("the policy has no action distribution to sample")
-                    dist.update(a)
-                    std = dist.std.detach().clone()
+            if std is not None:
                 a = a + std * torch.randn(a.shape, generator=gen).to(a.device)
             obs, _, dones, _ = env.step(a)
             fell |= dones.bool().cpu()
@@ -87,7 +95,6 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero: tuple[str, .
             acc["wheel_qd"].append(env.tv["actuated_qd"][:, 12:].mean(0).tolist())
             acc["wheel_target"].append(wp.to_torch(env.sim.wheel_qd_target).mean(0).tolist())
             acc["wheel_torque"].append(env.tv["joint_torque"][:, 12:].mean(0).tolist())
-            acc["wheel_action"].append(a[:, wheels].mean(0).tolist())
             per_robot.append(a[:, wheels].detach().cpu().clone())
             acc["vx"].append(float(env.base_state()["lin_vel"][:, 0].mean()))
             usage += torch.bincount(env.active_gait().cpu(), minlength=env.num_gaits).float()
@@ -101,13 +108,14 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero: tuple[str, .
     out["p_cost"] = out["p_cost_legs"] + out["p_cost_wheels"]
     w = torch.stack(per_robot)  # (T, n, 4)
 
-    def rms(x: torch.Tensor) -> list[float]:
-        return np.round(x.pow(2).mean((0, 1)).sqrt().double().numpy(), 4).tolist()
+    def per_wheel(x: torch.Tensor) -> np.ndarray:  # (T, n, 4) -> the mean over steps and robots, per wheel
+        return x.mean((0, 1)).double().numpy()
 
-    out["wheel_action_rms_about_mean"] = rms(w - w.mean(0))
-    out["wheel_action_step_rms"] = rms(w[1:] - w[:-1])
+    out["wheel_action"] = per_wheel(w).round(4).tolist()
+    out["wheel_action_rms_about_mean"] = np.sqrt(per_wheel((w - w.mean(0)).pow(2))).round(4).tolist()
+    out["wheel_action_step_rms"] = np.sqrt(per_wheel((w[1:] - w[:-1]).pow(2))).round(4).tolist()
     out["wheel_scale_rad_s"] = float(env.cfg.action.wheel_scale)  # x the action RMS: rad/s
-    if sample:
+    if std is not None:
         out["action_std"] = [round(float(x), 4) for x in std[0]]
     return out
 
