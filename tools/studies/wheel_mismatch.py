@@ -1,6 +1,6 @@
 """What a wheel-speed mismatch costs: the nominal driving gait (every residual 0, the gait forced to ``driving``) at
 a held forward command, with constant wheel-speed offsets added to Eq. 3's nominal wheel velocities through the
-wheel actions (offset / wheel scale), by pattern and size. Four wheels on one rigid body that roll on flat ground
+wheel actions (offset / wheel scale), by pattern and size (``--gait`` forces another gait). Four wheels on one rigid body that roll on flat ground
 can only agree on one speed; wheel-speed targets that disagree make the PID wheels push against each other through
 the ground (slip), and that power buys no motion. This measures how many watts each rad/s of disagreement costs,
 so a policy's mean wheel actions (``wheel_residual_probe.py``) can be read as watts.
@@ -44,13 +44,13 @@ def parse_offsets(text: str) -> list[float]:
 
 
 def sweep(runner, vx: float, offsets: list[float], patterns: list[str], seconds: float = 6.0,
-          settle: float = 2.0, progress=print) -> list[dict]:
-    """One rollout of the forced driving gait per (pattern, offset), and the nominal gait (offset 0) first."""
+          settle: float = 2.0, progress=print, gait: str = "driving") -> list[dict]:
+    """One rollout of the forced ``gait`` per (pattern, offset), and the nominal gait (offset 0) first."""
     from wqwarp.control.gaits import gait_index
     from wqwarp.eval.wheel_probe import rollout
 
     env = runner.env
-    env.gait_selector.forced_gait = gait_index("driving", env.cfg.gait.library)
+    env.gait_selector.forced_gait = gait_index(gait, env.cfg.gait.library)
     scale = float(env.cfg.action.wheel_scale)
     everything = ("phase", "foot", "wheel")
     runs = [("nominal", 0.0)] + [(p, d) for p in patterns for d in offsets]
@@ -76,6 +76,9 @@ def main(argv=None) -> int:
                     help="offset sizes [rad/s], comma-separated (default 0.1,0.25,0.5,1)")  # fmt: skip
     ap.add_argument("--patterns", default=",".join(PATTERNS),
                     help=f"patterns, comma-separated, of {', '.join(PATTERNS)} (default all)")  # fmt: skip
+    ap.add_argument("--gait", default="driving",
+                    help="gait of the library to force (default driving; a legged gait shows what the wheel gains do "
+                         "to its stance wheels)")  # fmt: skip
     ap.add_argument("--robots", type=int, default=8, help="robots (default 8; no domain randomisation)")
     ap.add_argument("--seconds", type=float, default=6.0, help="rollout length [s] (default 6, the first 2 settle)")
     ap.add_argument("--wheel-ki", type=float, default=None,
@@ -118,9 +121,17 @@ def main(argv=None) -> int:
         print(f"error: {runner.preset} has no driving gait to force with wheel residuals (want a predictive preset "
               f"with 20 actions, e.g. ours)", file=sys.stderr)  # fmt: skip
         return 2
-    rows = sweep(runner, args.vx, offsets, patterns, args.seconds)
+    from wqwarp.control.gaits import gait_index
+
+    try:
+        gait_index(args.gait, runner.env.cfg.gait.library)
+    except ValueError as e:
+        print(f"error: --gait: {e}", file=sys.stderr)
+        return 2
+    rows = sweep(runner, args.vx, offsets, patterns, args.seconds, gait=args.gait)
     if args.json:
-        write_result_json(args.json, {"checkpoint": args.checkpoint, "preset": runner.preset, "vx": args.vx,
+        write_result_json(args.json, {"checkpoint": args.checkpoint, "preset": runner.preset, "gait": args.gait,
+                                      "vx": args.vx,
                                       "robots": args.robots, "seconds": args.seconds, "settle": 2.0,
                                       "wheel_scale_rad_s": float(runner.env.cfg.action.wheel_scale),
                                       "wheel_pid": {k: getattr(runner.env.cfg.sim, k) for k in
