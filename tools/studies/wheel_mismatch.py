@@ -1,9 +1,10 @@
-"""What a wheel-speed mismatch costs: the nominal driving gait (every residual 0, the gait forced to ``driving``) at
-a held forward command, with constant wheel-speed offsets added to Eq. 3's nominal wheel velocities through the
-wheel actions (offset / wheel scale), by pattern and size (``--gait`` forces another gait). Four wheels on one rigid body that roll on flat ground
-can only agree on one speed; wheel-speed targets that disagree make the PID wheels push against each other through
-the ground (slip), and that power buys no motion. This measures how many watts each rad/s of disagreement costs,
-so a policy's mean wheel actions (``wheel_residual_probe.py``) can be read as watts.
+"""What a wheel-speed mismatch costs: the nominal driving gait (every residual 0, the gait forced to ``driving``;
+``--gait`` forces another) at a held forward command, with constant wheel-speed offsets added to Eq. 3's nominal
+wheel velocities through the wheel actions (offset / wheel scale), by pattern and size. Four wheels on one rigid
+body that roll on flat ground can only agree on one speed; wheel-speed targets that disagree make the PID wheels
+push against each other through the ground (slip), and that power buys no motion. This measures how many watts
+each rad/s of disagreement costs, so a policy's mean wheel actions (``wheel_residual_probe.py``) can be read as
+watts.
 
 Usage::
 
