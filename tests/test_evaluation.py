@@ -376,10 +376,10 @@ def test_a_protocol_prints_to_the_stdout_of_its_call_not_of_its_import(monkeypat
 
 def test_the_wheel_probe_samples_the_training_noise_around_the_mean_with_and_without_its_wheel_offsets(
         tmp_path, save_checkpoint):  # fmt: skip
-    """tools/studies/wheel_residual_probe.py --noise: the deterministic pair as before (zeroed: wheel actions
-    exactly 0), and a sampled pair that draws the policy's learned std (an untrained policy: the initial std on every
-    action) around the mean with and without its wheel part; the noise costs wheel power (33 W against 24 W
-    measured)."""
+    """tools/studies/wheel_residual_probe.py --noise --held-wheels: the deterministic pair as before (zeroed: wheel
+    actions exactly 0), the held-wheel pair (constant wheel actions, the policy's mean), and a sampled pair that
+    draws the policy's learned std (an untrained policy: the initial std on every action) around the mean with and
+    without its wheel part; the noise costs wheel power (33 W against 24 W measured)."""
     import importlib
 
     probe = importlib.import_module("tools.studies.wheel_residual_probe")
@@ -388,11 +388,15 @@ def test_the_wheel_probe_samples_the_training_noise_around_the_mean_with_and_wit
     torch.manual_seed(0)
     path = str(save_checkpoint(tmp_path / "model_0.pt", cfg))
     out_json = tmp_path / "probe.json"
-    assert probe.main(["--checkpoint", path, "--robots", "2", "--seconds", "2.6", "--noise", "--json",
-                       str(out_json)]) == 0  # fmt: skip
+    assert probe.main(["--checkpoint", path, "--robots", "2", "--seconds", "2.6", "--noise", "--held-wheels",
+                       "--json", str(out_json)]) == 0  # fmt: skip
     res = json.loads(out_json.read_text())["results"]
     assert set(res) == {"policy", "zero_wheel_residuals", "zero_leg_residuals", "nominal", "policy_sampled",
-                        "zero_wheel_mean_sampled"}
+                        "zero_wheel_mean_sampled", "policy_held_wheels", "nominal_held_wheels"}
+    held = res["policy"]["wheel_action"]  # --held-wheels: every robot and step on the policy's mean wheel action
+    for name in ("policy_held_wheels", "nominal_held_wheels"):
+        assert res[name]["wheel_action"] == pytest.approx(held, abs=1e-4)
+        assert res[name]["wheel_action_rms_about_mean"] == [0.0] * 4
     assert res["nominal"]["wheel_action"] == [0.0] * 4 and res["zero_leg_residuals"]["wheel_action"] != [0.0] * 4
     assert res["zero_wheel_residuals"]["wheel_action"] == [0.0, 0.0, 0.0, 0.0]
     std = res["policy_sampled"]["action_std"]
