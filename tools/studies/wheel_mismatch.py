@@ -44,14 +44,13 @@ def parse_offsets(text: str) -> list[float]:
     return out
 
 
-def sweep(runner, vx: float, offsets: list[float], patterns: list[str], seconds: float = 6.0,
-          settle: float = 2.0, progress=print, gait: str = "driving") -> list[dict]:
-    """One rollout of the forced ``gait`` per (pattern, offset), and the nominal gait (offset 0) first."""
-    from wqwarp.control.gaits import gait_index
+def sweep(runner, vx: float, offsets: list[float], patterns: list[str], gait_id: int, seconds: float = 6.0,
+          settle: float = 2.0, progress=print) -> list[dict]:
+    """One rollout of the forced gait ``gait_id`` per (pattern, offset), and the nominal gait (offset 0) first."""
     from wqwarp.eval.wheel_probe import rollout
 
     env = runner.env
-    env.gait_selector.forced_gait = gait_index(gait, env.cfg.gait.library)
+    env.gait_selector.forced_gait = gait_id
     scale = float(env.cfg.action.wheel_scale)
     everything = ("phase", "foot", "wheel")
     runs = [("nominal", 0.0)] + [(p, d) for p in patterns for d in offsets]
@@ -105,31 +104,30 @@ def main(argv=None) -> int:
     from wqwarp import quiet_warp
 
     quiet_warp()
+    from wqwarp.control.gaits import gait_index
     from wqwarp.eval.loading import checkpoint_env_config, make_policy_runner
     from wqwarp.eval.physics import evaluation_config
+    from wqwarp.rl.presets import check_preset
     from wqwarp.utils.provenance import write_result_json
 
     try:
         cfg = None
-        if args.wheel_ki is not None:
-            cfg = evaluation_config(checkpoint_env_config(args.checkpoint), args.robots, "cpu")
+        if args.wheel_ki is not None:  # the gains are built into the simulator: replace them before it exists
+            trained = checkpoint_env_config(args.checkpoint)
+            if args.preset is not None:
+                check_preset(args.preset, trained, args.checkpoint)
+            cfg = evaluation_config(trained, args.robots, "cpu")
             cfg.sim.wheel_ki = args.wheel_ki
         runner = make_policy_runner(args.checkpoint, args.preset, args.robots, cfg=cfg)
+        gait_id = gait_index(args.gait, runner.env.cfg.gait.library)
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     if runner.env.num_actions != 20 or runner.env.gait_selector.name != "predictive":
-        print(f"error: {runner.preset} has no driving gait to force with wheel residuals (want a predictive preset "
-              f"with 20 actions, e.g. ours)", file=sys.stderr)  # fmt: skip
+        print(f"error: {runner.preset} has no gait to force with wheel residuals (want a predictive preset with 20 "
+              f"actions, e.g. ours)", file=sys.stderr)  # fmt: skip
         return 2
-    from wqwarp.control.gaits import gait_index
-
-    try:
-        gait_index(args.gait, runner.env.cfg.gait.library)
-    except ValueError as e:
-        print(f"error: --gait: {e}", file=sys.stderr)
-        return 2
-    rows = sweep(runner, args.vx, offsets, patterns, args.seconds, gait=args.gait)
+    rows = sweep(runner, args.vx, offsets, patterns, gait_id, args.seconds)
     if args.json:
         write_result_json(args.json, {"checkpoint": args.checkpoint, "preset": runner.preset, "gait": args.gait,
                                       "vx": args.vx,

@@ -47,13 +47,14 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero: tuple[str, .
     fell = torch.zeros(n, dtype=torch.bool)
     gen = torch.Generator(device="cpu").manual_seed(seed)
     std = learned_std(runner.policy, obs) if sample else None
+    held = None if wheels_fixed is None else torch.tensor(wheels_fixed, dtype=torch.float32, device=obs.device)
     with torch.no_grad():
         for k in range(int(round(seconds / env.dt))):
             a = runner.policy(obs).clone()  # the deterministic output: the mean action
             for g in zero:
                 a[:, groups[g]] = 0.0
-            if wheels_fixed is not None:
-                a[:, wheels] = torch.tensor(wheels_fixed, dtype=a.dtype, device=a.device)
+            if held is not None:
+                a[:, wheels] = held
             if std is not None:
                 a = a + std * torch.randn(a.shape, generator=gen).to(a.device)
             obs, _, dones, _ = env.step(a)
