@@ -126,3 +126,53 @@ def test_per_group_std_and_action_logs():
         runner.learn(1)
     with pytest.raises(ValueError, match="action groups"):
         runner.alg.set_group_std([1.0, 2.0])
+
+
+def test_the_reward_ramp_against_hand_values():
+    """``RewardConfig.ramp_scale``: 0 before ramp_start, linear to 1 over ramp_iterations, 1 after; a step at
+    ramp_start when ramp_iterations is 0."""
+    from wqwarp.rl.config import RewardConfig
+
+    r = RewardConfig(ramp_terms=("p_cost",), ramp_start=100, ramp_iterations=50)
+    assert [r.ramp_scale(i) for i in (0, 99, 100, 125, 150, 4000)] == [0.0, 0.0, 0.0, 0.5, 1.0, 1.0]
+    step = RewardConfig(ramp_terms=("p_cost",), ramp_start=10)
+    assert [step.ramp_scale(i) for i in (9, 10, 11)] == [0.0, 1.0, 1.0]
+
+
+def test_training_ramps_the_named_weights_and_resumes_on_the_ramp(tmp_path):
+    """The runner moves the ramped weight with the PPO iteration (the rollout of iteration k sees ramp_scale(k)),
+    leaves the other weights, logs the scale, and a run resumed from a checkpoint continues on the ramp; an env
+    outside training sees the full weights; a ramp naming no term is refused."""
+    import contextlib
+    import io
+
+    from helpers import quiet_runner
+
+    from wqwarp.rl.env import WheeledGo1Env
+    from wqwarp.rl.presets import make_preset
+
+    cfg = make_preset("no_predictor")
+    cfg.sim.num_envs = 2
+    cfg.reward.p_cost = -0.01
+    cfg.reward.ramp_terms, cfg.reward.ramp_start, cfg.reward.ramp_iterations = ("p_cost",), 1, 2
+    train = TrainConfig(num_steps_per_env=2, save_interval=1)
+    runner = quiet_runner(cfg, log_dir=str(tmp_path), seed=1, train=train)
+    env = runner.env
+    k = env.reward_names.index("p_cost")
+    others = np.delete(env.full_reward_weights, k)
+    assert env.reward_weights.numpy()[k] == pytest.approx(-0.01)  # outside training: full weight
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner.learn(2)  # iterations 0 and 1 ran; the next is 2
+    assert env.reward_ramp_scale == 0.5 and env.reward_weights.numpy()[k] == pytest.approx(-0.005)
+    np.testing.assert_array_equal(np.delete(env.reward_weights.numpy(), k), others)
+    _, _, _, extras = env.step(torch.zeros(env.num_envs, env.num_actions))
+    assert extras["log"]["Reward/ramp_scale"] == 0.5
+    resumed = quiet_runner(cfg, log_dir=str(tmp_path), seed=1, train=train)
+    resumed.load(str(tmp_path / "model_1.pt"))
+    with contextlib.redirect_stdout(io.StringIO()):
+        resumed.learn(2)  # rsl-rl resumes at the saved iteration: 1 and 2 ran, the next is 3, past the ramp
+    assert resumed.env.reward_ramp_scale == 1.0
+    assert resumed.env.reward_weights.numpy()[k] == pytest.approx(-0.01)
+    cfg.reward.ramp_terms = ("speed",)
+    with pytest.raises(ValueError, match="RewardConfig.ramp_terms names no reward term: speed"):
+        WheeledGo1Env(cfg)

@@ -7,7 +7,8 @@ of rsl-rl's own (``rsl_rl.extensions``): after PPO's update it fits on the rollo
 broadcast from rank 0 at the start and averaged across ranks after each fit under torch.distributed.
 
 Order inside :meth:`WqPPO.update` (the random streams are consumed in it): PPO's update, the estimator fit, the
-power-predictor fit, then the temperature schedule moves to the next iteration.
+power-predictor fit, then the temperature schedule and the reward ramp (``RewardConfig.ramp_terms``, a third,
+stateless extension) move to the next iteration.
 """
 
 from __future__ import annotations
@@ -77,6 +78,31 @@ class EstimatorLearner:
             self.trainer.optimizer.load_state_dict(saved[f"{self.key}_optimizer_state_dict"])
 
 
+class RewardRampLearner:
+    """The reward curriculum as an extension: moves the env's ramped weights (``RewardConfig.ramp_terms``) to the
+    iteration; nothing to fit or save (the ramp is a function of the iteration, which the checkpoint holds)."""
+
+    key = "reward_ramp"
+
+    def __init__(self, env: WheeledGo1Env):
+        self.env = env
+
+    def modules(self) -> list[nn.Module]:
+        return []
+
+    def fit(self) -> dict[str, float]:
+        return {}
+
+    def set_iteration(self, iteration: int) -> None:
+        self.env.set_iteration(iteration)
+
+    def state_dict(self) -> dict:
+        return {}
+
+    def load_state_dict(self, saved: dict, strict: bool, rng: bool) -> None:
+        """Nothing saved."""
+
+
 class GaitSelectorLearner:
     """The gait selector as an extension: with predictive selection the power predictor (masked regression on the
     labelled power windows of the replay buffer, ``wqwarp.rl.gait_selection``) and the softmax temperature schedule;
@@ -142,7 +168,7 @@ class WqPPO(PPO):
         self.update_threads = update_threads
         """Torch intra-op threads during the update and the fits (None: leave torch's setting); collection keeps
         torch's setting (``wqwarp.utils.threads``: the physics threads run then)."""
-        self.learners: list[EstimatorLearner | GaitSelectorLearner] = []
+        self.learners: list[EstimatorLearner | GaitSelectorLearner | RewardRampLearner] = []
         """The extensions, in the order they fit (:meth:`attach`)."""
         self.aux_losses: dict[str, float] = {}
         """Losses of the last fits of the extensions."""
@@ -182,9 +208,10 @@ class WqPPO(PPO):
         return alg
 
     def attach(self, env: WheeledGo1Env) -> None:
-        """Take the env's estimator trainer and gait selector as the extensions (estimator first), and the robots
-        that act with the mean (:attr:`mean_actors`)."""
-        self.learners = [EstimatorLearner(env.estimator_trainer), GaitSelectorLearner(env.gait_selector)]
+        """Take the env's estimator trainer, gait selector and reward ramp as the extensions (in that order), and
+        the robots that act with the mean (:attr:`mean_actors`)."""
+        self.learners = [EstimatorLearner(env.estimator_trainer), GaitSelectorLearner(env.gait_selector),
+                         RewardRampLearner(env)]  # fmt: skip
         mask = env.gait_selector.label_robots
         if mask is not None and self.normalize_advantage_per_mini_batch:
             raise ValueError("predictor.label_source = mean needs normalize_advantage_per_mini_batch off (the "

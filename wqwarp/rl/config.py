@@ -44,6 +44,15 @@ def _reward_weights(self, terms: tuple[RewardTerm, ...] = TERMS) -> list[float]:
     return [float(getattr(self, t.name, t.weight)) for t in terms]
 
 
+def _ramp_scale(self, iteration: int) -> float:
+    """Factor on the weights of ``ramp_terms`` at PPO ``iteration``: 0 before ``ramp_start``, then
+    (iteration - ramp_start) / ramp_iterations up to 1 (a step to 1 at ``ramp_start`` when ramp_iterations is 0)."""
+    done = int(iteration) - self.ramp_start
+    if self.ramp_iterations <= 0:
+        return 1.0 if done >= 0 else 0.0
+    return min(1.0, max(0.0, done / self.ramp_iterations))
+
+
 RewardConfig = dataclasses.make_dataclass(
     "RewardConfig",
     [(t.name, float, field(default=t.weight, metadata={"doc": t.doc})) for t in TERMS]
@@ -54,8 +63,17 @@ RewardConfig = dataclasses.make_dataclass(
            "plain sum.")})),
        ("soft_joint_limit", float, field(default=0.9, metadata={"doc": (
            "Width of the soft joint range of the joint_limits term as a fraction of each leg joint's range, about "
-           "its centre (legged_gym's soft_dof_pos_limit).")}))],
-    namespace={"weights": _reward_weights, "__module__": __name__},
+           "its centre (legged_gym's soft_dof_pos_limit).")})),
+       ("ramp_terms", tuple[str, ...], field(default=(), metadata={"doc": (
+           "Terms whose weights are annealed in during training (a curriculum beyond the paper, which does not "
+           "say; e.g. p_cost, so that tracking is learned before the energy term counts): weight 0 before PPO "
+           "iteration ramp_start, then linear to the full weight over ramp_iterations. Evaluation and a policy "
+           "outside training see the full weights. Empty: no ramp.")})),
+       ("ramp_start", int, field(default=0, metadata={"doc": (
+           "PPO iteration at which the ramp_terms start counting.")})),
+       ("ramp_iterations", int, field(default=0, metadata={"doc": (
+           "PPO iterations from ramp_start to the full weight of the ramp_terms (0: a step at ramp_start).")}))],
+    namespace={"weights": _reward_weights, "ramp_scale": _ramp_scale, "__module__": __name__},
 )
 RewardConfig.__doc__ = """Weights of the paper's Table II (and of the terms beyond it, 0 by default), one field per
 term of the registry ``wqwarp.rl.rewards`` (the fields are derived from it). Each term is multiplied by its weight and
@@ -367,6 +385,7 @@ class EnvConfig(CheckedConfig):
         check_positive(self, "episode_length_s")
         f = self.reward.soft_joint_limit
         require(0.0 < f <= 1.0, "RewardConfig.soft_joint_limit", f"must be in (0, 1], got {f}")
+        check_positive(self.reward, "ramp_start", "ramp_iterations", strict=False)
         require(self.gait.selection != "none" or not self.action.use_nominal_legs, "ActionConfig.use_nominal_legs",
                 "needs a nominal gait (gait.selection != 'none')")  # fmt: skip
 

@@ -36,6 +36,7 @@ from wqwarp.rl.observations import ACTOR_TERMS, ESTIMATE, PRIVILEGED_TERMS
 from wqwarp.rl.rewards import TERMS, RewardTerm, check_terms, soft_joint_limits
 from wqwarp.robot import constants as C
 from wqwarp.sim.simulator import Simulator
+from wqwarp.utils.checked_config import require
 
 
 class WheeledGo1Env(VecEnv):
@@ -102,8 +103,17 @@ class WheeledGo1Env(VecEnv):
         self.reward_names = tuple(t.name for t in reward_terms)
         """Reward term names in the order of the kernel's columns (``reward_terms_wp``, ``episode_sums``)."""
         weights = cfg.reward.weights(reward_terms)
+        unknown = sorted(set(cfg.reward.ramp_terms) - set(self.reward_names))
+        require(not unknown, "RewardConfig.ramp_terms", f"names no reward term: {', '.join(unknown)} (terms: "
+                f"{', '.join(self.reward_names)})")  # fmt: skip
+        self.full_reward_weights = np.asarray(weights, np.float32)
+        """w_k of each term at full weight (what evaluation and a policy outside training see)."""
+        self.ramped = np.array([n in cfg.reward.ramp_terms for n in self.reward_names])
+        """Terms whose weights the training ramps in (``RewardConfig.ramp_terms``)."""
+        self.reward_ramp_scale = 1.0
+        """Factor on the ramped terms' weights now (:meth:`set_iteration`; 1 until training sets an iteration)."""
         self.reward_kernel = make_reward_kernel(tuple(t.resolve() for t in reward_terms))
-        self.reward_weights = wp.array(np.asarray(weights, np.float32), dtype=wp.float32, device=sim.device)
+        self.reward_weights = wp.array(self.full_reward_weights, dtype=wp.float32, device=sim.device)
         self.reward_wp = wp.zeros(n, dtype=wp.float32, device=sim.device)
         self.reward_terms_wp = wp.zeros((n, len(reward_terms)), dtype=wp.float32, device=sim.device)
         self.episode_sums_wp = wp.zeros((n, len(reward_terms)), dtype=wp.float32, device=sim.device)
@@ -243,6 +253,8 @@ class WheeledGo1Env(VecEnv):
         self.prev_actions[:] = self.actions
         # Metrics see the state before resets; the observations below re-read it after resets and pushes.
         self.extras = {"time_outs": time_out.clone(), "log": self._step_metrics(self.base_state(), ~unstable)}
+        if self.ramped.any():
+            self.extras["log"]["Reward/ramp_scale"] = self.reward_ramp_scale
         done_ids = dones.nonzero(as_tuple=False).flatten()
         if len(done_ids):
             self.extras["log"].update(self._episode_log(done_ids, unstable))
@@ -259,6 +271,15 @@ class WheeledGo1Env(VecEnv):
         self._reset_envs(torch.arange(self.num_envs, device=self.device))
         self._obs = self._observe()
         return self._obs
+
+    def set_iteration(self, iteration: int) -> None:
+        """Weights of the PPO iteration the coming rollout belongs to: the ramped terms' full weights times
+        ``RewardConfig.ramp_scale(iteration)`` (stateless, so a resumed run continues the ramp where it was)."""
+        if not self.ramped.any():
+            return
+        self.reward_ramp_scale = self.cfg.reward.ramp_scale(iteration)
+        scale = np.where(self.ramped, np.float32(self.reward_ramp_scale), np.float32(1.0))
+        self.reward_weights.assign(self.full_reward_weights * scale)
 
     def refresh_after_load(self) -> None:
         """Observe again, with every robot due for a gait selection, after networks were loaded into the env: the
