@@ -280,6 +280,27 @@ def test_the_default_profile_sets_the_levers_each_method_can_use_and_paper_sets_
     assert {lever.path for lever in OMNI_LEVERS} <= fields  # every lever is a command-line option too
 
 
+def test_the_energy_profile_adds_the_issue_22_levers_to_every_method():
+    from wqwarp.rl.profiles import ENERGY_LEVERS, OMNI_LEVERS, PROFILES
+
+    assert PROFILES["energy"].levers == OMNI_LEVERS + ENERGY_LEVERS
+    for name in PRESETS:  # the same energy recipe for every method, on top of what omni gives it
+        env, train = resolve_config(_parse("--preset", name, "--profile", "energy"))
+        omni_env, omni_train = resolve_config(_parse("--preset", name))
+        assert (env.reward.p_cost, env.sim.wheel_ki) == (-0.01, 0.0)
+        assert (env.reward.ramp_terms, env.reward.ramp_start, env.reward.ramp_iterations) == (("p_cost",), 2000, 1000)
+        assert env.reward.ramp_scale(1999) == 0.0 and env.reward.ramp_scale(2500) == 0.5
+        assert env.reward.ramp_scale(3000) == env.reward.ramp_scale(4882) == 1.0
+        env.reward.p_cost, env.sim.wheel_ki = omni_env.reward.p_cost, omni_env.sim.wheel_ki
+        env.reward.ramp_terms, env.reward.ramp_start, env.reward.ramp_iterations = (), 0, 0
+        assert to_dict(env) == to_dict(omni_env) and train == omni_train  # nothing else differs
+    env, _ = resolve_config(_parse("--profile", "energy", "--reward", "p_cost=-0.02", "--env.sim.wheel-ki", "2"))
+    assert (env.reward.p_cost, env.sim.wheel_ki) == (-0.02, 2.0)  # an option still wins over the profile
+    fields = {o.path for name, cfg in default_roots().items() for _, _, leaves in config_options(name, cfg)
+              for o in leaves}  # fmt: skip
+    assert {lever.path for lever in ENERGY_LEVERS} <= fields
+
+
 def test_an_unknown_profile_exits_2_with_one_line(capsys):
     with pytest.raises(SystemExit) as e:
         _parse("--profile", "fast")

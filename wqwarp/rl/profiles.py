@@ -4,6 +4,10 @@ its preset (``train/ppo_newton.py --profile``, ``train/reproduce.py --profile``)
     omni   the levers that made the default main job track v_x, v_y and w within 15 M samples on this laptop (issue 21,
            docs/studies/omnidirectional/README.md): the lateral feed-forward, the kinematic gait criterion with
            mean-action labels, and a lower initial foot std. The training command's default.
+    energy omni plus the levers of issue 22 (docs/studies/residual_energy/README.md): the paper's p_cost as a reward
+           term at a weight that matters (-0.01 per W), held at 0 until the lateral skill is learned and ramped in
+           over iterations 2000-3000, and P-only wheels (the authors' harness's law: no integral winding the wheels
+           up against each other). The same levers for every method, so the methods stay comparable.
     paper  none: the paper's method as written (the presets alone).
 
 A profile is a list of :class:`Lever` (a dotted config path, its value, and which methods it applies to: a lever
@@ -26,6 +30,10 @@ def _nominal_legs(cfg: EnvConfig) -> bool:
 
 def _predictive(cfg: EnvConfig) -> bool:
     return cfg.gait.selection == "predictive"
+
+
+def _every(cfg: EnvConfig) -> bool:
+    return True
 
 
 @dataclass(frozen=True)
@@ -69,9 +77,25 @@ OMNI_LEVERS: tuple[Lever, ...] = (
 """The levers of ``omni``, measured in docs/studies/omnidirectional/README.md (two seeds at 15 M samples: MSE v_x
 0.0014 / 0.0004, v_y 0.0405 / 0.0402, w 0.0249 / 0.0206, all upright)."""
 
+ENERGY_LEVERS: tuple[Lever, ...] = (
+    Lever("env.reward.p_cost", -0.01, _every,
+          "-0.01 per W of sum |tau qd|: 22-48 % less power per task than omni alone (two seeds, 15 M); Table II's "
+          "energy term is ~0.2 % of the tracking rewards"),
+    Lever("env.sim.wheel_ki", 0.0, _every,
+          "P-only wheels: the wheel integrals wound up against each other (front push, rear brake); -59 to -65 % power "
+          "on v_x, two seeds"),
+    Lever("env.reward.ramp_terms", ("p_cost",), _every,
+          "p_cost counts only after the lateral skill is learned (with it from iteration 0 stepping is a coin toss)"),
+    Lever("env.reward.ramp_start", 2000, _every, "the omni default learns v_y below 0.15 by ~1400-1650 iterations"),
+    Lever("env.reward.ramp_iterations", 1000, _every, "linear to the full weight at iteration 3000 of 4883"),
+)  # fmt: skip
+"""The levers ``energy`` adds to ``omni`` (docs/studies/residual_energy/README.md, the ramp sections)."""
+
 PROFILES: dict[str, Profile] = {p.name: p for p in (
     Profile("omni", "the levers that met the omnidirectional target at 15 M samples (lateral feed-forward, kinematic "
             "gait criterion with mean-action labels, foot std 0.25)", OMNI_LEVERS),
+    Profile("energy", "omni plus p_cost at -0.01 per W ramped in over iterations 2000-3000 and P-only wheels (the "
+            "energy levers of issue 22)", OMNI_LEVERS + ENERGY_LEVERS),
     Profile("paper", "the paper's method as written: no lever beyond the preset"),
 )}  # fmt: skip
 """Profile name -> :class:`Profile`."""
