@@ -53,6 +53,28 @@ def test_windows_are_labelled_with_the_realised_mean_and_cut_windows_are_dropped
     assert lab.open.tolist() == [True, False, True, False]
 
 
+def test_with_command_cut_a_window_whose_command_changes_is_dropped_and_without_it_labelled():
+    # Two robots, horizon 2, both in gait 1; robot 1's command is resampled before its second step.
+    obs0 = torch.zeros(2, 2)
+    active, no = torch.tensor([1, 1]), torch.zeros(2, dtype=torch.bool)
+    held = torch.tensor([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    changed = torch.tensor([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    p = [torch.tensor([2.0, 2.0]), torch.tensor([4.0, 30.0])]
+    labels = {}
+    for cut in (False, True):
+        lab = WindowLabeler(2, obs_dim=2, horizon=2, command_cut=cut)
+        lab.start(obs0, active, requested=active, commands=held)
+        assert len(lab.step(p[0], p[0], active, no, held)[2]) == 0
+        labels[cut] = lab.step(p[1], p[1], active, no, changed)[2].tolist()
+        assert int(lab.dropped) == int(cut)
+    assert labels[False] == [pytest.approx(3.0), pytest.approx(16.0)]  # robot 1: half stand, half 1 m/s
+    assert labels[True] == [pytest.approx(3.0)]  # robot 0 only
+    with pytest.raises(ValueError, match="command_cut needs"):
+        WindowLabeler(2, obs_dim=2, horizon=2, command_cut=True).start(obs0, active, requested=active)
+    sel = _selector(2, label_command_cut=True)
+    assert sel.labeler.command_cut and not _selector(2).labeler.command_cut
+
+
 def _selector(n: int, dt: float = 1.0 / 3.0, **over) -> PredictiveGaitSelector:
     kw = {"horizon_s": 1.0, "decision_interval_s": 1.0, "buffer_size": 64, "holdout_fraction": 0.25, **over}
     cfg = PredictorConfig(**kw)

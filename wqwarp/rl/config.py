@@ -241,6 +241,12 @@ class PredictorConfig(CheckedConfig):
     label_fraction: float = 0.125
     """Share of robots that act with the mean action and label the predictor with ``label_source = mean`` (every
     round(1 / fraction)-th robot; at most 0.5: the others' samples train the policy)."""
+    label_command_cut: bool = False
+    """Beyond the paper: also drop a window in which the robot's command changes (a resample every
+    ``commands.resampling_time``), as one cut by a reset or a gait switch is. The forecast at o_t is for o_t's
+    command, and evaluation holds its commands; a window that straddles a resample labels o_t with part of another
+    command's power (a standing robot's window that ends in a 1 m/s command costs it several watts). Off: the
+    paper's windows."""
 
     def check(self) -> None:
         require(0.0 < self.label_fraction <= 0.5, "PredictorConfig.label_fraction",
@@ -535,6 +541,7 @@ MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("predictor.kinematic_lateral_limit", 0.1, "its default (unused with the power criterion)"),
     ("predictor.label_source", "policy", "every robot's sampled actions, the only labels before the setting existed"),
     ("predictor.label_fraction", 0.125, "its default (unused with policy labels)"),
+    ("predictor.label_command_cut", False, "windows were cut only by resets and gait switches before the setting"),
     ("predictor.kinematic_yaw_limit", 10.0, "driving a candidate for every yaw command before the setting existed"),
     ("reward.p_cost", 0.0, "no power-cost term before the setting existed"),
     ("reward.joint_limits", 0.0, "no joint-limit term before the setting existed"),

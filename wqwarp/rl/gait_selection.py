@@ -146,13 +146,16 @@ class WindowLabeler:
 
     :meth:`start` opens a window at o_t for robots whose requested gait is in effect and that have none open;
     :meth:`step` adds one policy step's p_cost and returns the windows that completed. A reset or a change of the
-    running gait inside a window drops it.
+    running gait inside a window drops it, and with ``command_cut`` a change of the robot's command too.
     """
 
-    def __init__(self, num_envs: int, obs_dim: int, horizon: int, device: str = "cpu"):
+    def __init__(self, num_envs: int, obs_dim: int, horizon: int, device: str = "cpu", command_cut: bool = False):
         if horizon < 1:
             raise ValueError(f"window horizon must be >= 1 policy step, got {horizon}")
         self.horizon = horizon
+        self.command_cut = command_cut
+        self.command = torch.zeros(num_envs, 3, device=device)
+        """The command at each open window's o_t (read only with ``command_cut``)."""
         self.open = torch.zeros(num_envs, dtype=torch.bool, device=device)
         self.gait = torch.zeros(num_envs, dtype=torch.long, device=device)
         self.obs = torch.zeros(num_envs, obs_dim, device=device)
@@ -163,11 +166,16 @@ class WindowLabeler:
         """Windows dropped since construction (reset or gait switch inside; a tensor: no host sync per step)."""
 
     def start(self, obs: torch.Tensor, active: torch.Tensor, requested: torch.Tensor,
-              allowed: torch.Tensor | None = None) -> None:  # fmt: skip
-        """Open windows at o_t; ``allowed`` (N,) bool restricts them to those robots (None: every robot)."""
+              allowed: torch.Tensor | None = None, commands: torch.Tensor | None = None) -> None:  # fmt: skip
+        """Open windows at o_t; ``allowed`` (N,) bool restricts them to those robots (None: every robot);
+        ``commands`` (N, 3) are o_t's (needed with ``command_cut``)."""
         new = ~self.open & (active == requested)
         if allowed is not None:
             new &= allowed
+        if self.command_cut:
+            if commands is None:
+                raise ValueError("a labeler with command_cut needs the commands at o_t")
+            self.command[new] = commands[new].to(self.command)
         self.obs[new] = obs[new]
         self.gait[new] = active[new]
         self.sum[new] = 0.0
@@ -175,11 +183,16 @@ class WindowLabeler:
         self.length[new] = 0
         self.open |= new
 
-    def step(self, p_cost: torch.Tensor, error: torch.Tensor, active: torch.Tensor, reset: torch.Tensor):
-        """Account one policy step that ran gait ``active``, cost ``p_cost`` [W] and tracked with squared error
-        ``error``; ``reset`` marks robots reset after it. Returns (obs (K, D), gait (K,), mean p_cost (K,), mean
-        error (K,)) of the windows completed by this step."""
+    def step(self, p_cost: torch.Tensor, error: torch.Tensor, active: torch.Tensor, reset: torch.Tensor,
+             commands: torch.Tensor | None = None):  # fmt: skip
+        """Account one policy step that ran gait ``active`` under ``commands`` (N, 3; needed with ``command_cut``),
+        cost ``p_cost`` [W] and tracked with squared error ``error``; ``reset`` marks robots reset after it. Returns
+        (obs (K, D), gait (K,), mean p_cost (K,), mean error (K,)) of the windows completed by this step."""
         cut = self.open & ((active != self.gait) | reset)
+        if self.command_cut:
+            if commands is None:
+                raise ValueError("a labeler with command_cut needs each step's commands")
+            cut |= self.open & (commands.to(self.command) != self.command).any(dim=1)
         self.dropped += cut.sum()
         self.open &= ~cut
         zero = torch.zeros_like(p_cost)
@@ -374,7 +387,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
             raise ValueError("the kinematic criterion needs a gait with swing in gait.library")
         self.candidates = torch.zeros(2, device=dev)
         """Candidate gaits offered and selections made since the last log (a tensor: no host sync per step)."""
-        self.labeler = WindowLabeler(n, obs_dim, self.horizon, dev)
+        self.labeler = WindowLabeler(n, obs_dim, self.horizon, dev, command_cut=cfg.label_command_cut)
         if cfg.label_source == "mean":
             every = max(1, int(round(1.0 / cfg.label_fraction)))
             self.label_robots = torch.arange(n, device=dev) % every == 0
@@ -423,7 +436,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.due |= self.in_gait >= self.decision_steps
         self.prev_active = active.clone()
         if self.training:
-            obs, gait, y, e = self.labeler.step(p_cost, error, active, reset)
+            obs, gait, y, e = self.labeler.step(p_cost, error, active, reset, commands)
             if len(y):
                 self._store(obs, gait, y, e)
 
@@ -476,7 +489,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
             self.in_gait[ids] = 0
             self.due[ids] = False
         if self.training:
-            self.labeler.start(obs, active, self.requested.long(), self.label_robots)
+            self.labeler.start(obs, active, self.requested.long(), self.label_robots, commands)
 
     def predict(self, obs: torch.Tensor) -> torch.Tensor:
         """Predicted mean p_cost of each gait over the horizon (N, G) [W]."""
