@@ -7,7 +7,9 @@ its preset (``train/ppo_newton.py --profile``, ``train/reproduce.py --profile``)
     energy omni plus the levers of issue 22 (docs/studies/residual_energy/README.md): the paper's p_cost as a reward
            term at a weight that matters (-0.01 per W), held at 0 until the lateral skill is learned and ramped in
            over iterations 2000-3000, and P-only wheels (the authors' harness's law: no integral winding the wheels
-           up against each other). The same levers for every method, so the methods stay comparable.
+           up against each other). The same levers for every method, so the methods stay comparable. An option:
+           on two seeds of ours the v_x headline holds (0.46x / 0.28x the equally trained trot's power) but v_y is
+           tracked 2-3x worse than under omni.
     paper  none: the paper's method as written (the presets alone).
 
 A profile is a list of :class:`Lever` (a dotted config path, its value, and which methods it applies to: a lever
