@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+import os
+
 import numpy as np
 import pytest
 import torch
@@ -221,6 +224,26 @@ def test_settings_added_later_are_filled_with_the_old_behaviour_and_reported():
     del d["predictor"]  # a predictive run must have its own predictor settings
     with pytest.raises(ValueError, match="missing keys \\['predictor'\\]"):
         env_config_from_dict(d)
+
+
+def test_every_committed_training_configuration_still_loads():
+    """The configurations of the trainings behind docs/ (``*_train_config.json``, ``config.json`` of study runs) load
+    with today's code: each setting added since is in ``MIGRATIONS``, so their checkpoints evaluate and resume."""
+    import glob
+
+    from wqwarp.rl.config import env_config_from_dict
+
+    root = os.path.join(os.path.dirname(__file__), "..", "docs")
+    paths = glob.glob(os.path.join(root, "**", "*train_config.json"), recursive=True)
+    paths += glob.glob(os.path.join(root, "**", "config.json"), recursive=True)
+    assert len(paths) > 20
+    for path in paths:
+        with open(path) as f:
+            data = json.load(f)
+        if "env" not in data:
+            continue
+        cfg = env_config_from_dict(data["env"])
+        assert cfg.seed == data["env"]["seed"], path
 
 
 def test_evaluation_builds_the_env_from_the_checkpoints_own_configuration(tmp_path, save_checkpoint):

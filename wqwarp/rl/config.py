@@ -546,6 +546,13 @@ MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("reward.p_cost", 0.0, "no power-cost term before the setting existed"),
     ("reward.joint_limits", 0.0, "no joint-limit term before the setting existed"),
     ("reward.soft_joint_limit", 0.9, "the default; read only by the joint-limit term, off before it existed"),
+    ("sim.contact_ke", 2.0e4, "its default; read only by the featherstone backend, which no training used before"),
+    ("sim.contact_kd", 300.0, "its default; read only by the featherstone backend, which no training used before"),
+    ("sim.contact_kf", 100.0, "its default; read only by the featherstone backend, which no training used before"),
+    ("sim.contact_mu", 1.0, "its default; read only by the featherstone backend, which no training used before"),
+    ("reward.ramp_terms", [], "no reward ramp before the setting existed"),
+    ("reward.ramp_start", 0, "its default (unused without ramp terms)"),
+    ("reward.ramp_iterations", 0, "its default (unused without ramp terms)"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
 checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""
