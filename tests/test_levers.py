@@ -176,3 +176,45 @@ def test_training_ramps_the_named_weights_and_resumes_on_the_ramp(tmp_path):
     cfg.reward.ramp_terms = ("speed",)
     with pytest.raises(ValueError, match="RewardConfig.ramp_terms names no reward term: speed"):
         WheeledGo1Env(cfg)
+
+
+def test_the_skill_gate_holds_the_ramp_until_the_lateral_error_is_low_and_resumes_open(tmp_path):
+    """``ramp_gate_vy_error``: the ramp starts only once the mean training v_y error of a full window of iterations is
+    below the threshold (a closed gate keeps the weight at 0), from the iteration after it opened; the opening and
+    the window are saved, so a resumed run continues on the ramp."""
+    import contextlib
+    import io
+
+    from helpers import quiet_runner
+
+    from wqwarp.rl.algorithm import RewardRampLearner
+    from wqwarp.rl.presets import make_preset
+
+    def runner_for(threshold: float, log_dir):
+        cfg = make_preset("no_predictor")
+        cfg.sim.num_envs = 2
+        cfg.reward.p_cost = -0.01
+        cfg.reward.ramp_terms, cfg.reward.ramp_start, cfg.reward.ramp_iterations = ("p_cost",), 0, 2
+        cfg.reward.ramp_gate_vy_error, cfg.reward.ramp_gate_window = threshold, 2
+        train = TrainConfig(num_steps_per_env=2, save_interval=1)
+        runner = quiet_runner(cfg, log_dir=str(log_dir), seed=1, train=train)
+        ramp = next(x for x in runner.alg.learners if isinstance(x, RewardRampLearner))
+        return runner, ramp
+
+    closed, ramp = runner_for(1e-9, tmp_path / "closed")  # no robot tracks v_y to a nanometre per second
+    with contextlib.redirect_stdout(io.StringIO()):
+        closed.learn(3)
+    assert ramp.opened_at is None and len(ramp.errors) == 2 and closed.env.reward_ramp_scale == 0.0
+    k = closed.env.reward_names.index("p_cost")
+    assert closed.env.reward_weights.numpy()[k] == 0.0
+    opened, ramp = runner_for(100.0, tmp_path / "open")  # any error is below 100 m/s: opens once the window is full
+    with contextlib.redirect_stdout(io.StringIO()):
+        opened.learn(3)  # iterations 0, 1 fill the window; the gate opens for 2; the next is 3, half-way
+    assert ramp.opened_at == 2 and opened.env.reward_ramp_scale == 0.5
+    assert opened.env.reward_weights.numpy()[k] == pytest.approx(-0.005)
+    resumed, again = runner_for(100.0, tmp_path / "open")
+    resumed.load(str(tmp_path / "open" / "model_2.pt"))
+    assert again.opened_at == 2 and list(again.errors) == pytest.approx(list(ramp.errors))
+    with contextlib.redirect_stdout(io.StringIO()):
+        resumed.learn(1)  # iteration 2 again; the next is 3
+    assert resumed.env.reward_ramp_scale == 0.5

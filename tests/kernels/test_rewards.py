@@ -64,7 +64,7 @@ def test_registry_derives_the_config_fields_and_every_term_has_a_formula_and_a_r
     assert all(t.weight == 0.0 for t in BEYOND_PAPER)  # every preset keeps the paper's reward
     fields = {f.name: f for f in dataclasses.fields(RewardConfig)}
     assert list(fields) == [*REWARD_TERMS, "tracking_sigma", "only_positive", "soft_joint_limit", "ramp_terms",
-                            "ramp_start", "ramp_iterations"]  # fmt: skip
+                            "ramp_start", "ramp_iterations", "ramp_gate_vy_error", "ramp_gate_window"]  # fmt: skip
     for t in TERMS:
         assert fields[t.name].default == t.weight and fields[t.name].metadata["doc"] == t.doc
         assert t.reference is not None and t.doc

@@ -14,6 +14,7 @@ stateless extension) move to the next iteration.
 from __future__ import annotations
 
 import math
+from collections import deque
 from typing import TYPE_CHECKING, Literal
 
 import torch
@@ -80,27 +81,60 @@ class EstimatorLearner:
 
 class RewardRampLearner:
     """The reward curriculum as an extension: moves the env's ramped weights (``RewardConfig.ramp_terms``) to the
-    iteration; nothing to fit or save (the ramp is a function of the iteration, which the checkpoint holds)."""
+    iteration. The ramp is a function of the iteration, which the checkpoint holds; with the skill gate
+    (``RewardConfig.ramp_gate_vy_error``) it also keeps the recent iterations' mean v_y errors and the iteration the
+    gate opened, and saves both."""
 
     key = "reward_ramp"
 
     def __init__(self, env: WheeledGo1Env):
         self.env = env
+        r = env.cfg.reward
+        self.gated = env.ramp_gated
+        self.errors: deque[float] = deque(maxlen=max(1, r.ramp_gate_window))
+        """Mean Metrics/vy_error of the latest rollouts (the gate's window)."""
+        self.opened_at: int | None = None
+        """PPO iteration at which the gated ramp started (None: not yet)."""
+        self.iteration = 0
 
     def modules(self) -> list[nn.Module]:
         return []
 
     def fit(self) -> dict[str, float]:
+        """After iteration ``self.iteration``'s rollout: add its mean v_y error to the window and open the gate for
+        the next iteration once the window is full, ramp_start is reached and its mean is below the threshold."""
+        if not self.gated or self.opened_at is not None:
+            return {}
+        err = self.env.take_gate_error()
+        if err is not None:
+            self.errors.append(err)
+        r = self.env.cfg.reward
+        full = len(self.errors) == self.errors.maxlen
+        if full and self.iteration >= r.ramp_start and sum(self.errors) / len(self.errors) < r.ramp_gate_vy_error:
+            self.opened_at = self.iteration + 1
+            print(f"reward ramp: gate opened for iteration {self.opened_at} (mean v_y error of the last "
+                  f"{len(self.errors)} iterations {sum(self.errors) / len(self.errors):.3f} < "
+                  f"{r.ramp_gate_vy_error:g} m/s)", flush=True)  # fmt: skip
         return {}
 
     def set_iteration(self, iteration: int) -> None:
-        self.env.set_iteration(iteration)
+        self.iteration = int(iteration)
+        self.env.set_iteration(iteration, self.opened_at)
 
     def state_dict(self) -> dict:
-        return {}
+        if not self.gated:
+            return {}
+        return {f"{self.key}_state_dict": {"opened_at": self.opened_at, "errors": list(self.errors)}}
 
     def load_state_dict(self, saved: dict, strict: bool, rng: bool) -> None:
-        """Nothing saved."""
+        """The gate's window and opening iteration from :meth:`state_dict` (nothing without the gate; a checkpoint
+        without them starts the gate afresh)."""
+        state = saved.get(f"{self.key}_state_dict")
+        if not self.gated or state is None:
+            return
+        self.opened_at = state["opened_at"]
+        self.errors.clear()
+        self.errors.extend(state["errors"])
 
 
 class GaitSelectorLearner:
@@ -289,10 +323,13 @@ class WqPPO(PPO):
         restores the gait selector's random stream). Checkpoints of format 1 kept the extensions in ``infos``."""
         if load_cfg is None:
             load_cfg = {"actor": True, "critic": True, "optimizer": True, "iteration": True, "rnd": True,
-                        "estimator": True, "gait_selector": True, "rng": True}  # fmt: skip
+                        "estimator": True, "gait_selector": True, "reward_ramp": True, "rng": True}  # fmt: skip
         infos = loaded_dict.get("infos") or {}
         saved = {k: loaded_dict[k] if k in loaded_dict else infos.get(old) for k, old in LEGACY_KEYS.items()}
         saved = {k: v for k, v in saved.items() if v is not None}
+        for learner in self.learners:  # entries added after format 1 (the gated reward ramp's)
+            if (key := f"{learner.key}_state_dict") in loaded_dict:
+                saved.setdefault(key, loaded_dict[key])
         load_iteration = super().load(loaded_dict, load_cfg, strict)
         for learner in self.learners:
             if load_cfg.get(learner.key):

@@ -44,10 +44,11 @@ def _reward_weights(self, terms: tuple[RewardTerm, ...] = TERMS) -> list[float]:
     return [float(getattr(self, t.name, t.weight)) for t in terms]
 
 
-def _ramp_scale(self, iteration: int) -> float:
-    """Factor on the weights of ``ramp_terms`` at PPO ``iteration``: 0 before ``ramp_start``, then
-    (iteration - ramp_start) / ramp_iterations up to 1 (a step to 1 at ``ramp_start`` when ramp_iterations is 0)."""
-    done = int(iteration) - self.ramp_start
+def _ramp_scale(self, iteration: int, start: int | None = None) -> float:
+    """Factor on the weights of ``ramp_terms`` at PPO ``iteration``: 0 before ``start`` (default ``ramp_start``;
+    with ``ramp_gate_vy_error`` the iteration the gate opened), then (iteration - start) / ramp_iterations up to 1
+    (a step to 1 at ``start`` when ramp_iterations is 0)."""
+    done = int(iteration) - (self.ramp_start if start is None else int(start))
     if self.ramp_iterations <= 0:
         return 1.0 if done >= 0 else 0.0
     return min(1.0, max(0.0, done / self.ramp_iterations))
@@ -72,7 +73,15 @@ RewardConfig = dataclasses.make_dataclass(
        ("ramp_start", int, field(default=0, metadata={"doc": (
            "PPO iteration at which the ramp_terms start counting.")})),
        ("ramp_iterations", int, field(default=0, metadata={"doc": (
-           "PPO iterations from ramp_start to the full weight of the ramp_terms (0: a step at ramp_start).")}))],
+           "PPO iterations from ramp_start to the full weight of the ramp_terms (0: a step at ramp_start).")})),
+       ("ramp_gate_vy_error", float, field(default=0.0, metadata={"doc": (
+           "Beyond the paper: with a value > 0 the ramp waits for the lateral skill. It starts at the first PPO "
+           "iteration >= ramp_start at which the training's mean |v_y error| (Metrics/vy_error, every robot) over "
+           "the last ramp_gate_window iterations is below this value [m/s] (0.15: the studies' skill threshold); "
+           "the opening iteration is saved in the checkpoint. 0: the ramp starts at ramp_start. Under torchrun each "
+           "rank gates on its own robots.")})),
+       ("ramp_gate_window", int, field(default=100, metadata={"doc": (
+           "PPO iterations averaged by the ramp_gate_vy_error gate.")}))],
     namespace={"weights": _reward_weights, "ramp_scale": _ramp_scale, "__module__": __name__},
 )
 RewardConfig.__doc__ = """Weights of the paper's Table II (and of the terms beyond it, 0 by default), one field per
@@ -391,7 +400,8 @@ class EnvConfig(CheckedConfig):
         check_positive(self, "episode_length_s")
         f = self.reward.soft_joint_limit
         require(0.0 < f <= 1.0, "RewardConfig.soft_joint_limit", f"must be in (0, 1], got {f}")
-        check_positive(self.reward, "ramp_start", "ramp_iterations", strict=False)
+        check_positive(self.reward, "ramp_start", "ramp_iterations", "ramp_gate_vy_error", strict=False)
+        check_positive(self.reward, "ramp_gate_window")
         require(self.gait.selection != "none" or not self.action.use_nominal_legs, "ActionConfig.use_nominal_legs",
                 "needs a nominal gait (gait.selection != 'none')")  # fmt: skip
 
@@ -553,6 +563,8 @@ MIGRATIONS: tuple[tuple[str, object, str], ...] = (
     ("reward.ramp_terms", [], "no reward ramp before the setting existed"),
     ("reward.ramp_start", 0, "its default (unused without ramp terms)"),
     ("reward.ramp_iterations", 0, "its default (unused without ramp terms)"),
+    ("reward.ramp_gate_vy_error", 0.0, "the ramp started at ramp_start before the gate existed"),
+    ("reward.ramp_gate_window", 100, "its default (unused without the gate)"),
 )
 """Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
 checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""

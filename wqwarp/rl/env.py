@@ -112,6 +112,11 @@ class WheeledGo1Env(VecEnv):
         """Terms whose weights the training ramps in (``RewardConfig.ramp_terms``)."""
         self.reward_ramp_scale = 1.0
         """Factor on the ramped terms' weights now (:meth:`set_iteration`; 1 until training sets an iteration)."""
+        self.ramp_gated = bool(self.ramped.any()) and cfg.reward.ramp_gate_vy_error > 0.0
+        """The ramp waits for the lateral skill (``RewardConfig.ramp_gate_vy_error``)."""
+        self.gate_error = torch.zeros(2, device=self.device)
+        """Sum of the steps' Metrics/vy_error and their count since :meth:`take_gate_error` (a tensor: no host sync
+        per step)."""
         self.reward_kernel = make_reward_kernel(tuple(t.resolve() for t in reward_terms))
         self.reward_weights = wp.array(self.full_reward_weights, dtype=wp.float32, device=sim.device)
         self.reward_wp = wp.zeros(n, dtype=wp.float32, device=sim.device)
@@ -255,6 +260,9 @@ class WheeledGo1Env(VecEnv):
         self.extras = {"time_outs": time_out.clone(), "log": self._step_metrics(self.base_state(), ~unstable)}
         if self.ramped.any():
             self.extras["log"]["Reward/ramp_scale"] = self.reward_ramp_scale
+        if self.ramp_gated and self.collect_training_data:
+            vy_error = self.extras["log"]["Metrics/vy_error"]
+            self.gate_error += torch.stack([vy_error, torch.ones_like(vy_error)])
         done_ids = dones.nonzero(as_tuple=False).flatten()
         if len(done_ids):
             self.extras["log"].update(self._episode_log(done_ids, unstable))
@@ -272,14 +280,25 @@ class WheeledGo1Env(VecEnv):
         self._obs = self._observe()
         return self._obs
 
-    def set_iteration(self, iteration: int) -> None:
+    def set_iteration(self, iteration: int, gate_opened_at: int | None = None) -> None:
         """Weights of the PPO iteration the coming rollout belongs to: the ramped terms' full weights times
-        ``RewardConfig.ramp_scale(iteration)`` (stateless, so a resumed run continues the ramp where it was)."""
+        ``RewardConfig.ramp_scale(iteration)`` (a function of the iteration, so a resumed run continues the ramp
+        where it was); with the skill gate, 0 until ``gate_opened_at`` and the ramp from there."""
         if not self.ramped.any():
             return
-        self.reward_ramp_scale = self.cfg.reward.ramp_scale(iteration)
+        if self.ramp_gated:
+            opened = gate_opened_at is not None
+            self.reward_ramp_scale = self.cfg.reward.ramp_scale(iteration, gate_opened_at) if opened else 0.0
+        else:
+            self.reward_ramp_scale = self.cfg.reward.ramp_scale(iteration)
         scale = np.where(self.ramped, np.float32(self.reward_ramp_scale), np.float32(1.0))
         self.reward_weights.assign(self.full_reward_weights * scale)
+
+    def take_gate_error(self) -> float | None:
+        """Mean Metrics/vy_error of the training steps since the last call (None without any), and restart."""
+        total, steps = self.gate_error.tolist()
+        self.gate_error.zero_()
+        return total / steps if steps else None
 
     def refresh_after_load(self) -> None:
         """Observe again, with every robot due for a gait selection, after networks were loaded into the env: the

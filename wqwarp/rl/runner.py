@@ -133,7 +133,7 @@ class WqRunner(OnPolicyRunner):
             raise ValueError(f"{path} is not a wqwarp checkpoint (holds a {type(ckpt).__name__})")
         check_compatible(ckpt.get("infos") or {}, self.env, path)
         cfg = {"actor": True, "critic": True, "optimizer": True, "iteration": True, "rnd": True, "estimator": True,
-               "gait_selector": True, **(load_cfg or {}), "rng": restore_rng}  # fmt: skip
+               "gait_selector": True, "reward_ramp": True, **(load_cfg or {}), "rng": restore_rng}  # fmt: skip
         try:
             infos = super().load(path, cfg, strict, map_location or self.device)
         except ValueError as e:
