@@ -109,12 +109,13 @@ class RewardRampLearner:
         if err is not None:
             self.errors.append(err)
         r = self.env.cfg.reward
-        full = len(self.errors) == self.errors.maxlen
-        if full and self.iteration >= r.ramp_start and sum(self.errors) / len(self.errors) < r.ramp_gate_vy_error:
+        if len(self.errors) < self.errors.maxlen or self.iteration < r.ramp_start:
+            return {}
+        mean = sum(self.errors) / len(self.errors)
+        if mean < r.ramp_gate_vy_error:
             self.opened_at = self.iteration + 1
             print(f"reward ramp: gate opened for iteration {self.opened_at} (mean v_y error of the last "
-                  f"{len(self.errors)} iterations {sum(self.errors) / len(self.errors):.3f} < "
-                  f"{r.ramp_gate_vy_error:g} m/s)", flush=True)  # fmt: skip
+                  f"{len(self.errors)} iterations {mean:.3f} < {r.ramp_gate_vy_error:g} m/s)", flush=True)
         return {}
 
     def set_iteration(self, iteration: int) -> None:
