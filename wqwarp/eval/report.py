@@ -351,6 +351,15 @@ def _driving_cell(summary: dict, res_dir: str) -> tuple[float, float] | None:
     return None
 
 
+def _profile_lines(names: list[str]) -> str:
+    """``"`omni` = ...; `paper` = ..."`` for the lever profiles a page's trainings ran with (all of them when none is
+    recorded), each with its summary from ``wqwarp.rl.profiles``."""
+    from wqwarp.rl.profiles import PROFILES
+
+    known = [n for n in names if n in PROFILES] or list(PROFILES)
+    return "; ".join(f"`{n}` = {PROFILES[n].summary}" for n in known)
+
+
 def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: str, work: str, git: dict) -> str:
     rel = os.path.relpath(res_dir, out)
     pres = summary["presets"]
@@ -366,8 +375,7 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
         "them.",
         "",
         f"**Levers.** Trained with `--profile {' / '.join(summary.get('profiles') or ['?'])}` (`wqwarp/rl/profiles.py`"
-        "): `paper` is each method as the paper specifies it; `omni` adds, to every method that can use them, the "
-        "levers beyond the paper that made the default main job track every command axis (docs/training.md).",
+        f", docs/training.md): {_profile_lines(summary.get('profiles') or [])}.",
         "",
         f"**Budget.** Training: {budget.num_envs} robots x {budget.steps_per_env} steps x {budget.iterations} "
         f"iterations = {samples / 1e6:.2f} M samples per preset and seed, {100 * samples / paper_samples:.2f} % of the "
