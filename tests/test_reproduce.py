@@ -105,7 +105,10 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     capsys.readouterr()
     assert reproduce.main([*args, "--stages", "push,report"]) == 1
     assert "push pmtg seed 1" in capsys.readouterr().err
-    assert "push pmtg seed 1" in (out / "RESULTS.md").read_text()  # listed as not run
+    page = (out / "RESULTS.md").read_text()
+    assert "push pmtg seed 1" in page  # listed as not run, and its training without its final checkpoint as such
+    assert "| PMTG | 1 | in progress: iteration 2 of 2 | - |" in page and "| Ours | 1 | " in page
+    assert "in_progress" not in _load(res / "results.json")["training"]["ours"]["1"]
     assert reproduce.main(["--presets", "nope"]) == 2
 
 

@@ -140,14 +140,21 @@ def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "v
     save_figure(fig, path, dpi=100)
 
 
-def _train_info(work: str, preset: str, seed: int) -> dict:
+def _train_info(work: str, preset: str, seed: int, iterations: int) -> dict:
+    """The training of ``preset`` / ``seed`` under ``work``: its arguments, wall time and final mean episode reward
+    when it has run all ``iterations`` (its final checkpoint is there, or it was imported, ``train_info.json``);
+    otherwise ``{"in_progress": k}`` with the last iteration k written, or {} before the first."""
     d = os.path.join(work, "train", f"{preset}_s{seed}")
     info: dict = {}
+    from wqwarp.rl.progress import read_metrics
+
+    imported = os.path.isfile(os.path.join(d, "train_info.json"))
+    if not os.path.isfile(os.path.join(d, f"model_{iterations - 1}.pt")) and not imported:
+        rows = read_metrics(d) if os.path.isdir(d) else []
+        return {"in_progress": int(rows[-1]["iteration"])} if rows else {}
     cfg = read_json(os.path.join(d, "config.json"))
     if cfg:
         info["args"] = cfg.get("args")
-    from wqwarp.rl.progress import read_metrics
-
     rows = read_metrics(d)  # one row per iteration, over the run and its resumptions
     if rows:
         info["wall_time_s"] = sum(r.get("wall_s") or 0.0 for r in rows)
@@ -195,10 +202,12 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
         hits = sorted(n for n in copied if n.endswith(f"_{kind}.png"))
         if hits:
             figures[kind] = hits[0]
-    training = {p: {s: _train_info(work, p, s) for s in seeds} for p in presets}
-    for p in presets:  # each training's configuration and its log (one line per 10 iterations and the summary)
+    training = {p: {s: _train_info(work, p, s, budget.iterations) for s in seeds} for p in presets}
+    for p in presets:  # each finished training's configuration and its log (one line per 10 iterations, the summary)
         for sd in seeds:
             base = os.path.join(work, "train", f"{p}_s{sd}")
+            if not training[p][sd] or "in_progress" in training[p][sd]:
+                continue
             if os.path.isfile(os.path.join(base, "config.json")):
                 dst = os.path.join(res_dir, f"{p}_s{sd}_train_config.json")
                 shutil.copyfile(os.path.join(base, "config.json"), dst)
@@ -493,6 +502,10 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     lines += ["", "## Training", "", "| method | seed | wall time | final mean episode reward |", "|---|---|---|---|"]
     for p, per_seed in summary["training"].items():
         for s, info in per_seed.items():
+            if "in_progress" in info:
+                lines.append(f"| {PAPER_NAMES[p]} | {s} | in progress: iteration {info['in_progress']} of "
+                             f"{budget.iterations} | - |")  # fmt: skip
+                continue
             wt = info.get("wall_time_s")
             rw = info.get("final_mean_reward")
             lines.append(f"| {PAPER_NAMES[p]} | {s} | {f'{wt / 60:.0f} min' if wt else '-'} | "
