@@ -140,18 +140,17 @@ def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "v
     save_figure(fig, path, dpi=100)
 
 
-def _train_info(work: str, preset: str, seed: int, iterations: int) -> dict:
+def _train_info(work: str, preset: str, seed: int, done: bool) -> dict:
     """The training of ``preset`` / ``seed`` under ``work``: its arguments, wall time and final mean episode reward
-    when it has run all ``iterations`` (its final checkpoint is there, or it was imported, ``train_info.json``);
-    otherwise ``{"in_progress": k}`` with the last iteration k written, or {} before the first."""
-    d = os.path.join(work, "train", f"{preset}_s{seed}")
-    info: dict = {}
+    when it is ``done``; otherwise ``{"in_progress": k}`` with the last iteration k written, or {} before the
+    first."""
     from wqwarp.rl.progress import read_metrics
 
-    imported = os.path.isfile(os.path.join(d, "train_info.json"))
-    if not os.path.isfile(os.path.join(d, f"model_{iterations - 1}.pt")) and not imported:
+    d = os.path.join(work, "train", f"{preset}_s{seed}")
+    if not done:
         rows = read_metrics(d) if os.path.isdir(d) else []
         return {"in_progress": int(rows[-1]["iteration"])} if rows else {}
+    info: dict = {}
     cfg = read_json(os.path.join(d, "config.json"))
     if cfg:
         info["args"] = cfg.get("args")
@@ -177,8 +176,10 @@ def config_profile(cfg: dict) -> str:
 
 
 def write_report(work: str, out: str, budget_name: str, budget, presets: list[str], seeds: list[int],
-                 wall_s: float) -> dict:  # fmt: skip
-    """Write ``out/RESULTS.md`` and ``out/results/<budget>/`` (results.json, the evaluation JSONs, PNGs)."""
+                 wall_s: float, trained: set[tuple[str, int]]) -> dict:  # fmt: skip
+    """Write ``out/RESULTS.md`` and ``out/results/<budget>/`` (results.json, the evaluation JSONs, PNGs); ``trained``
+    holds the (preset, seed) whose training is done (``wqwarp.eval.reproduce.trained``): the others are listed in
+    progress, nothing of them recorded."""
     from dataclasses import asdict
 
     from wqwarp.utils.io import write_text_atomic
@@ -202,7 +203,7 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
         hits = sorted(n for n in copied if n.endswith(f"_{kind}.png"))
         if hits:
             figures[kind] = hits[0]
-    training = {p: {s: _train_info(work, p, s, budget.iterations) for s in seeds} for p in presets}
+    training = {p: {s: _train_info(work, p, s, (p, s) in trained) for s in seeds} for p in presets}
     for p in presets:  # each finished training's configuration and its log (one line per 10 iterations, the summary)
         for sd in seeds:
             base = os.path.join(work, "train", f"{p}_s{sd}")

@@ -145,6 +145,12 @@ def final_checkpoint(work: str, preset: str, seed: int, budget: Budget) -> str:
     return os.path.join(run_dir(work, preset, seed), f"model_{budget.iterations - 1}.pt")
 
 
+def trained(work: str, preset: str, seed: int, budget: Budget) -> bool:
+    """The training of ``preset`` / ``seed`` is done: its final checkpoint is there, or it was imported."""
+    return os.path.isfile(final_checkpoint(work, preset, seed, budget)) or os.path.isfile(
+        os.path.join(run_dir(work, preset, seed), IMPORTED))  # fmt: skip
+
+
 ETA_ITERATIONS = 10
 """Iterations whose mean wall time gives a training stage's ETA."""
 
@@ -279,10 +285,10 @@ def import_finished(src: str, work: str, budget: Budget, profile: str, presets: 
 def stage_train(args, budget: Budget, preset: str, seed: int) -> bool:
     """Train ``preset`` with ``seed`` (``train/ppo_newton.py`` in a child process, its output in ``<run>.log``),
     resuming an interrupted run; True when the final checkpoint is there, or the training was imported."""
+    if trained(args.work, preset, seed, budget):
+        return True
     d = run_dir(args.work, preset, seed)
     final = final_checkpoint(args.work, preset, seed, budget)
-    if os.path.isfile(final) or os.path.isfile(os.path.join(d, IMPORTED)):
-        return True
     cmd = ["train/ppo_newton.py", "--preset", preset, "--profile", args.profile, "--seed", str(seed), "--num-envs",
            str(budget.num_envs), "--device", args.device, "--log-dir", d, "--no-export", "--num-steps-per-env",
            str(budget.steps_per_env), "--torch-threads", str(args.torch_threads)]  # fmt: skip
@@ -426,7 +432,8 @@ def main(argv: list[str] | None = None) -> int:
                 if not ok:
                     failed.append(f"{stage} {preset} seed {seed}")
     if "report" in stages:
-        write_report(args.work, args.out, args.budget, budget, presets, seeds, wall_s=time.time() - t0)
+        done = {(p, sd) for p in presets for sd in seeds if trained(args.work, p, sd, budget)}
+        write_report(args.work, args.out, args.budget, budget, presets, seeds, wall_s=time.time() - t0, trained=done)
         print(f"wrote {os.path.join(args.out, 'RESULTS.md')}")
     if failed:
         print("not done: " + "; ".join(failed), file=sys.stderr)
