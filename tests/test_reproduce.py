@@ -32,6 +32,7 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
         assert (res / f"{name}.json").is_file()
     summary, md = _load(res / "results.json"), (out / "RESULTS.md").read_text()
     assert summary["profiles"] == ["omni"] and "Trained with `--profile omni`" in md  # the default levers, named
+    assert "Written by `python train/reproduce.py --budget smoke --profile omni`" in md  # the command that re-makes it
     assert f"`omni` = {PROFILES['omni'].summary}" in md and "`energy` =" not in md  # ... and what they are
     train_cfg = _load(work / "train" / "ours_s1" / "config.json")
     assert "--profile omni" in train_cfg["command"] and train_cfg["env"]["gait"]["lateral_gain"] == 0.35

@@ -375,10 +375,13 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     pres = summary["presets"]
     samples = budget.num_envs * budget.steps_per_env * budget.iterations
     paper_samples = 4096 * 24 * 4000
+    profiles = summary.get("profiles") or []
+    profile_flag = f" --profile {profiles[0]}" if len(profiles) == 1 else ""
     lines = [
         f"# Results: reproduction of the paper's evaluation ({budget_name} budget)",
         "",
-        f"Written by `python train/reproduce.py --budget {budget_name}` (this page: `wqwarp/eval/report.py`) at commit "
+        f"Written by `python train/reproduce.py --budget {budget_name}{profile_flag}` (this page: "
+        "`wqwarp/eval/report.py`) at commit "
         f"`{(git.get('commit') or 'unknown')[:12]}`{' (uncommitted changes)' if git.get('dirty') else ''}; seeds "
         f"{', '.join(map(str, summary['seeds']))}. Every number below comes from a JSON in `{rel}/` that records the "
         "command that produced it, its commit, seed, resolved configuration and wall time; `results.json` collects "
