@@ -207,7 +207,7 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
     for p in presets:  # each finished training's configuration and its log (one line per 10 iterations, the summary)
         for sd in seeds:
             base = os.path.join(work, "train", f"{p}_s{sd}")
-            if not training[p][sd] or "in_progress" in training[p][sd]:
+            if (p, sd) not in trained:
                 continue
             if os.path.isfile(os.path.join(base, "config.json")):
                 dst = os.path.join(res_dir, f"{p}_s{sd}_train_config.json")
@@ -387,8 +387,8 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
         "command that produced it, its commit, seed, resolved configuration and wall time; `results.json` collects "
         "them.",
         "",
-        f"**Levers.** Trained with `--profile {' / '.join(summary.get('profiles') or ['?'])}` (`wqwarp/rl/profiles.py`"
-        f", docs/training.md): {_profile_lines(summary.get('profiles') or [])}.",
+        f"**Levers.** Trained with `--profile {' / '.join(profiles or ['?'])}` (`wqwarp/rl/profiles.py`"
+        f", docs/training.md): {_profile_lines(profiles)}.",
         "",
         f"**Budget.** Training: {budget.num_envs} robots x {budget.steps_per_env} steps x {budget.iterations} "
         f"iterations = {samples / 1e6:.2f} M samples per preset and seed, {100 * samples / paper_samples:.2f} % of the "
