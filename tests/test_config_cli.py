@@ -301,6 +301,17 @@ def test_the_energy_profile_adds_the_issue_22_levers_to_every_method():
     assert {lever.path for lever in ENERGY_LEVERS} <= fields
 
 
+def test_the_wheels_profile_is_omni_with_p_only_wheels_and_no_energy_term():
+    from wqwarp.rl.profiles import OMNI_LEVERS, P_ONLY_WHEELS, PROFILES
+
+    assert PROFILES["wheels"].levers == (*OMNI_LEVERS, P_ONLY_WHEELS) and P_ONLY_WHEELS in PROFILES["energy"].levers
+    for name in PRESETS:
+        env, train = resolve_config(_parse("--preset", name, "--profile", "wheels"))
+        same, same_train = resolve_config(_parse("--preset", name, "--env.sim.wheel-ki", "0"))  # the A/B's command
+        assert env.sim.wheel_ki == 0.0 and env.reward.p_cost == 0.0 and env.reward.ramp_terms == ()
+        assert to_dict(env) == to_dict(same) and train == same_train
+
+
 def test_an_unknown_profile_exits_2_with_one_line(capsys):
     with pytest.raises(SystemExit) as e:
         _parse("--profile", "fast")

@@ -10,6 +10,10 @@ its preset (``train/ppo_newton.py --profile``, ``train/reproduce.py --profile``)
            up against each other). The same levers for every method, so the methods stay comparable. An option:
            on three seeds of ours the v_x headline holds (0.28-0.46x the equally trained trot's power) but v_y is
            tracked 2-3x worse than under omni (MSE 0.07-0.11 against 0.040).
+    wheels omni plus only the P-only wheels of ``energy`` (no p_cost term): on two seeds each, ``ours`` spends 27-34 %
+           less than the fixed trot trained alike over the three tasks (v_x 0.27x its power at 0.08x its MSE), its
+           predictor is within 20 % on all four tasks, and it tracks v_y 1.5-2x better than under ``energy`` (MSE
+           0.049 / 0.070), though 5-7x worse than that trot (0.009 / 0.011). docs/studies/residual_energy/README.md.
     paper  none: the paper's method as written (the presets alone).
 
 A profile is a list of :class:`Lever` (a dotted config path, its value, and which methods it applies to: a lever
@@ -79,13 +83,16 @@ OMNI_LEVERS: tuple[Lever, ...] = (
 """The levers of ``omni``, measured in docs/studies/omnidirectional/README.md (two seeds at 15 M samples: MSE v_x
 0.0014 / 0.0004, v_y 0.0405 / 0.0402, w 0.0249 / 0.0206, all upright)."""
 
+P_ONLY_WHEELS = Lever("env.sim.wheel_ki", 0.0, _every,
+                      "P-only wheels: the wheel integrals wound up against each other (front push, rear brake); -59 "
+                      "to -65 % power on v_x, two seeds")  # fmt: skip
+"""The wheel law of the authors' harness, the lever of ``wheels`` and one of ``energy``."""
+
 ENERGY_LEVERS: tuple[Lever, ...] = (
     Lever("env.reward.p_cost", -0.01, _every,
           "-0.01 per W of sum |tau qd|: 22-48 % less power per task than omni alone (two seeds, 15 M); Table II's "
           "energy term is ~0.2 % of the tracking rewards"),
-    Lever("env.sim.wheel_ki", 0.0, _every,
-          "P-only wheels: the wheel integrals wound up against each other (front push, rear brake); -59 to -65 % power "
-          "on v_x, two seeds"),
+    P_ONLY_WHEELS,
     Lever("env.reward.ramp_terms", ("p_cost",), _every,
           "p_cost counts only after the lateral skill is learned (with it from iteration 0 stepping is a coin toss)"),
     Lever("env.reward.ramp_start", 2000, _every,
@@ -97,6 +104,9 @@ ENERGY_LEVERS: tuple[Lever, ...] = (
 PROFILES: dict[str, Profile] = {p.name: p for p in (
     Profile("omni", "the levers that met the omnidirectional target at 15 M samples (lateral feed-forward, kinematic "
             "gait criterion with mean-action labels, foot std 0.25)", OMNI_LEVERS),
+    Profile("wheels", "omni plus P-only wheels (no p_cost term): the energy profile's wheel law alone, which tracks "
+            "v_y 1.5-2x better than energy and still spends 27-34 % less than the fixed trot trained alike", (
+                *OMNI_LEVERS, P_ONLY_WHEELS)),
     Profile("energy", "omni plus p_cost at -0.01 per W ramped in over iterations 2000-3000 and P-only wheels (the "
             "energy levers of issue 22)", OMNI_LEVERS + ENERGY_LEVERS),
     Profile("paper", "the paper's method as written: no lever beyond the preset"),
