@@ -117,8 +117,8 @@ DEFAULT_PROFILE = "omni"
 
 
 def profile_help() -> str:
-    """``omni = ...; paper = ...`` for a ``--profile`` help text."""
-    return "; ".join(f"{p.name} = {p.summary}" for p in PROFILES.values())
+    """``omni = ...; paper = ...`` for a ``--profile`` help text (argparse formats help with ``%``: escaped)."""
+    return "; ".join(f"{p.name} = {p.summary}" for p in PROFILES.values()).replace("%", "%%")
 
 
 def profile_overrides(name: str, env: EnvConfig) -> dict[str, object]:
