@@ -255,6 +255,62 @@ def test_the_kinematic_criterion_keeps_lateral_commands_off_the_gait_without_swi
     assert sel.kinematic_candidates(turns)[:, 1:].all()
 
 
+def test_kinematic_feasible_sends_a_lateral_command_to_the_cheapest_stepping_gait_predicted_to_track():
+    # Predicted squared errors: driving 0.01 (it stands still, and standing is what the head saw), trotting 0.05,
+    # walking 0.12; power: driving 1, trotting 9, walking 5. Each criterion's argmin for a lateral command:
+    # feasible -> driving (tracks best), kinematic -> walking (the cheaper stepping gait), kinematic_feasible ->
+    # trotting (walking is more than the margin worse than the best stepping gait).
+    from wqwarp.rl.config import EnvConfig
+    from wqwarp.rl.gait_selection import make_gait_selector
+
+    err = torch.tensor([[0.01, 0.05, 0.12], [0.01, 0.05, 0.12], [0.01, 0.05, 0.12]])
+    allowed = torch.tensor([[False, True, True], [True, True, True], [False, False, True]])
+    assert feasible_gaits(err, 0.02, allowed).tolist() == [[False, True, False], [True, False, False],
+                                                           [False, False, True]]  # fmt: skip
+    lateral_and_forward = torch.tensor([[0.0, 0.4, 0.0], [0.8, 0.0, 0.0]])
+    picks = {}
+    for criterion in ("feasible", "kinematic", "kinematic_feasible"):
+        cfg = EnvConfig()
+        cfg.gait.selection, cfg.predictor.criterion = "predictive", criterion
+        cfg.predictor.temperature_start = cfg.predictor.temperature_end = 1e-6
+        sel = make_gait_selector(cfg, torch.zeros(2, dtype=torch.int32), GAITS, 1, 0.02, obs_dim=2)
+        assert (sel.tracker is not None) == (criterion != "kinematic")
+        _constant_power(sel, [1.0, 9.0, 5.0])
+        if sel.tracker is not None:
+            with torch.no_grad():
+                for prm in sel.tracker.net.parameters():
+                    prm.zero_()
+                sel.tracker.net[-1].bias.copy_(err[0])
+            sel.tracker_fitted = True
+        sel.select(torch.zeros(2, 2), torch.ones(2, dtype=torch.long), lateral_and_forward)
+        picks[criterion] = sel.requested.tolist()
+        # the energy map asks the same rule with a cell's mean prediction in place of the head's output
+        cand = sel.evaluation_candidates(None, lateral_and_forward, err[:2])
+        if criterion == "kinematic_feasible":
+            assert cand.tolist() == [[False, True, False], [True, False, False]]
+    assert picks == {"feasible": [0, 0], "kinematic": [2, 0], "kinematic_feasible": [1, 0]}
+    # While training (tau > 0) the kinematic mask stays hard and the margin is softened: a lateral command never
+    # goes to driving, walking keeps odds e^(-penalty / tau) against trotting at equal power.
+    n = 20000
+    cfg = EnvConfig()
+    cfg.gait.selection, cfg.predictor.criterion = "predictive", "kinematic_feasible"
+    cfg.predictor.temperature_start = cfg.predictor.temperature_end = 0.5
+    cfg.predictor.feasible_penalty = 0.5
+    hot = make_gait_selector(cfg, torch.zeros(n, dtype=torch.int32), GAITS, 1, 0.02, obs_dim=2)
+    hot.training = True
+    _constant_power(hot, [6.0, 6.0, 6.0])
+    with torch.no_grad():
+        for prm in hot.tracker.net.parameters():
+            prm.zero_()
+        hot.tracker.net[-1].bias.copy_(err[0])
+    hot.tracker_fitted = True
+    hot.select(torch.zeros(n, 2), torch.ones(n, dtype=torch.long), torch.tensor([[0.0, 0.4, 0.0]]).repeat(n, 1))
+    freq = torch.bincount(hot.requested.long(), minlength=3).double() / n
+    expect = torch.softmax(-torch.tensor([1.0, 1.0 + 0.5], dtype=torch.float64) / 0.5, 0)
+    assert freq[0] == 0.0
+    assert torch.all((freq[1:] - expect).abs() < 4.5 * torch.sqrt(expect * (1 - expect) / n)), (freq, expect)
+
+
 # --- the network -----------------------------------------------------------------------------------------------------
 def test_predictor_fits_a_synthetic_power_function_of_the_observation():
     # p_g(o) = a_g + b_g * o0^2 + c_g * o1 with distinct coefficients per gait, labels only for the gait that ran.
@@ -333,7 +389,8 @@ def test_requested_gait_has_one_home_and_the_critic_reads_the_running_gait():
     assert (env.active_gait() == 0).all()
 
 
-@pytest.mark.parametrize(("preset", "criterion"), [("ours", "power"), ("no_wheel_vel", "power"), ("ours", "feasible")])
+@pytest.mark.parametrize(("preset", "criterion"),
+                         [("ours", "power"), ("no_wheel_vel", "power"), ("ours", "kinematic_feasible")])
 def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(preset, criterion, tmp_path):
     import contextlib
     import io
@@ -377,14 +434,16 @@ def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(pr
     obs = env2.get_observations()["policy"]
     assert torch.equal(env2.gait_selector.predict(obs), sel.predict(obs))
     assert env2.gait_selector.iteration == 2
-    if criterion == "feasible":  # the tracking head learnt windows and travels with the checkpoint
+    if criterion == "kinematic_feasible":  # the tracking head learnt windows and travels with the checkpoint
         assert "Predictor/tracking_loss" in logged and sel.tracker_fitted and "tracker" in state
         assert torch.equal(env2.gait_selector.predict_error(obs), sel.predict_error(obs))
         paths = export_onboard_policy(runner2, str(tmp_path / "export"))
         policy = torch.export.load(paths["torch_export"]).module()
         meta = json.loads(open(paths["json"]).read())
         actions, power, error = policy(torch.zeros(3, meta["history_length"], meta["proprio_dim"]))
-        assert error.shape == (3, 3) and "candidates" in meta["gait_selection"]["rule"]
+        assert error.shape == (3, 3)
+        rule = meta["gait_selection"]["rule"]  # both masks, in the order the selector applies them
+        assert rule.index("other than driving (no swing)") < rule.index("predicted_tracking_error <= the minimum of")
         return
 
     # The export returns the actions and each gait's predicted power; its json states the argmin rule.

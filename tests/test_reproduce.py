@@ -67,6 +67,8 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     for c in em["cells"]:
         assert set(c["measured_p_cost"]) == {"driving", "trotting", "walking"}
         assert c["predicted_winner"] == min(c["predicted_p_cost"], key=c["predicted_p_cost"].get)
+        # the rule the checkpoint runs (omni: kinematic): every cell has |v_y| or |w| = 0.7, so never driving
+        assert em["config"]["predictor"]["criterion"] == "kinematic" and c["selected"] in ("trotting", "walking")
         assert max(c["share_not_in_forced_gait"].values()) < 0.5  # each robot ran the gait forced on it
     # The nominal gait with zero residual on stand and v_x (the energy targets' floor), for Ours only.
     nom = _load(ev / "ours_s1_nominal.json")

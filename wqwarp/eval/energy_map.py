@@ -9,9 +9,11 @@ in one batch, commands held, no randomisation. Measured per robot over the secon
 the same steps of the predictor's output for that gait, from the observations of the cell's robots. The measured
 winner is the cheapest gait whose robot stayed up, the tracking winner the cheapest whose robot also tracked its
 command (squared velocity error at most :data:`TRACKING_LIMIT`); the predicted winner is the argmin of the
-predictions (what the paper's rule selects). A checkpoint trained with the ``feasible`` criterion (beyond the paper)
-also reports the tracking head's predicted squared error per gait and the gait its rule selects (the cheapest
-predicted power among the gaits predicted to track within ``feasible_margin`` of the best).
+predictions over every gait (what the paper's rule selects), ``selected`` the gait the checkpoint's own criterion
+selects from the cell's mean predictions and its command (``PredictiveGaitSelector.evaluation_candidates``: the
+same as the predicted winner with the paper's ``power`` rule; with ``kinematic`` never driving for a lateral
+command; with a tracking head, ``feasible`` or ``kinematic_feasible``, the cheapest gait predicted to track, whose
+predicted squared error per gait is reported too).
 Energy alone can favour a gait that does not do the task (driving under a lateral command stands still, cheaply):
 the figure marks such cells.
 
@@ -30,7 +32,7 @@ import torch
 
 from wqwarp.eval.options import ProtocolOptions, option
 from wqwarp.eval.rollout import evaluation_session, start_rollout
-from wqwarp.rl.gait_selection import feasible_gaits, tracking_error
+from wqwarp.rl.gait_selection import tracking_error
 
 RANGES = {"vx": (-1.0, 1.0), "vy": (-0.7, 0.7), "wz": (-0.7, 0.7)}
 AXES = {"vx": 0, "vy": 1, "wz": 2}
@@ -102,9 +104,9 @@ def _cheapest(gaits: list[str], power: torch.Tensor, candidates: list[int]) -> s
     return gaits[min(candidates, key=lambda k: float(power[k]))] if candidates else None
 
 
-def summarise_cells(cells: list, gaits: list[str], m: dict, margin: float | None = None) -> list[dict]:
-    """One result entry per cell from :func:`measure_forced_gaits` of robots ordered cell * G + gait; ``margin``:
-    the ``feasible`` criterion's margin when the measurement has the tracking head's predictions."""
+def summarise_cells(cells: list, gaits: list[str], m: dict, allowed: torch.Tensor | None = None) -> list[dict]:
+    """One result entry per cell from :func:`measure_forced_gaits` of robots ordered cell * G + gait; ``allowed``
+    (cells, G) bool: the gaits the checkpoint's criterion may select in each cell (None: every gait)."""
     g = len(gaits)
     out = []
     for i, (plane, command) in enumerate(cells):
@@ -122,13 +124,20 @@ def summarise_cells(cells: list, gaits: list[str], m: dict, margin: float | None
             "measured_winner": _cheapest(gaits, cell["p"], up),
             "measured_winner_tracking": _cheapest(gaits, cell["p"], ok),
             "predicted_winner": min(predicted, key=predicted.get),
+            "selected": _cheapest(gaits, cell["pred"].mean(0),
+                                  list(range(g)) if allowed is None else allowed[i].nonzero().flatten().tolist()),
         })  # fmt: skip
         if "pred_err" in cell:
-            pred_err = cell["pred_err"].mean(0)
-            cand = feasible_gaits(pred_err[None], margin)[0].nonzero().flatten().tolist()
-            out[-1]["predicted_sq_velocity_error"] = {gaits[k]: float(pred_err[k]) for k in range(g)}
-            out[-1]["selected_feasible"] = _cheapest(gaits, cell["pred"].mean(0), cand)
+            err = cell["pred_err"].mean(0)
+            out[-1]["predicted_sq_velocity_error"] = {gaits[k]: float(err[k]) for k in range(g)}
     return out
+
+
+def cell_means(m: dict, key: str, cells: int) -> torch.Tensor | None:
+    """(cells, G) mean over each cell's robots of a per-robot (N, G) measurement ``m[key]``; None if absent."""
+    if key not in m:
+        return None
+    return m[key].reshape(cells, -1, m[key].shape[-1]).mean(1)
 
 
 @dataclass(kw_only=True)
@@ -163,7 +172,9 @@ def energy_map(opts: EnergyMapOptions, log: TextIO) -> dict:
             print(f"\r  {100 * k // n:3d} %", end="", flush=True, file=log)
 
     m = measure_forced_gaits(runner, cmd, torch.arange(g, device=dev).repeat(len(cells)), opts.seconds, progress)
-    out_cells = summarise_cells(cells, gaits, m, runner.env.cfg.predictor.feasible_margin)
+    cell_cmd = torch.tensor([c for _, c in cells], dtype=torch.float32, device=dev)
+    allowed = runner.env.gait_selector.evaluation_candidates(None, cell_cmd, cell_means(m, "pred_err", len(cells)))
+    out_cells = summarise_cells(cells, gaits, m, allowed)
     agree = [cl["measured_winner"] == cl["predicted_winner"] for cl in out_cells if cl["measured_winner"]]
     print(f"\r{runner.preset} checkpoint (iteration {runner.iteration}): {len(cells)} cells x {g} gaits, "
           f"{opts.seconds:g} s; predicted winner = measured winner in {sum(agree)}/{len(agree)} cells", file=log)
@@ -172,11 +183,10 @@ def energy_map(opts: EnergyMapOptions, log: TextIO) -> dict:
     untracked = sum(cl["measured_winner"] != cl["measured_winner_tracking"] for cl in out_cells)
     print(f"cells where the cheapest gait does not track its command (squared error > {TRACKING_LIMIT}): {untracked}",
           file=log)  # fmt: skip
-    if "selected_feasible" in out_cells[0]:
-        hit = sum(cl["selected_feasible"] == cl["measured_winner_tracking"] for cl in out_cells
-                  if cl["measured_winner_tracking"])  # fmt: skip
-        told = sum(1 for cl in out_cells if cl["measured_winner_tracking"])
-        print(f"feasible criterion: selects the cheapest gait that tracks in {hit}/{told} cells", file=log)
+    hit = sum(cl["selected"] == cl["measured_winner_tracking"] for cl in out_cells if cl["measured_winner_tracking"])
+    told = sum(1 for cl in out_cells if cl["measured_winner_tracking"])
+    print(f"{runner.env.cfg.predictor.criterion} criterion: selects the cheapest gait that tracks in {hit}/{told} "
+          "cells", file=log)  # fmt: skip
     return {"checkpoint": opts.checkpoint, "preset": runner.preset, "iteration": runner.iteration,
             "seed": opts.seed, "grid": opts.grid, "seconds": opts.seconds, "wall_time_s": time.time() - t0,
             "winner_agreement": sum(agree) / max(len(agree), 1), "tracking_limit": TRACKING_LIMIT,
@@ -220,11 +230,12 @@ def draw_energy_map(result: dict, path: str, command: str | None = None) -> None
         for i, v in enumerate(vs):
             for j, u in enumerate(us):
                 c = at[(u, v)]
-                text = f"{(c['measured_winner'] or '-')[:5]}\npred {c['predicted_winner'][:5]}"
+                text = f"{(c['measured_winner'] or '-')[:5]}\nsel {c.get('selected', c['predicted_winner'])[:5]}"
                 if c["measured_winner_tracking"] != c["measured_winner"]:
                     text += f"\ntrack {(c['measured_winner_tracking'] or 'none')[:5]}"
                 ax[row, -1].text(j, i, text, ha="center", va="center", fontsize=6)
-        ax[row, -1].set_title("cheapest: measured (colour), predicted;\n'track': cheapest that tracks", fontsize=8)
+        ax[row, -1].set_title("cheapest: measured (colour); 'sel': the rule's choice;\n'track': cheapest that tracks",
+                              fontsize=8)  # fmt: skip
         for axx in ax[row]:
             axx.set_xticks(range(len(us)), [f"{u:g}" for u in us], fontsize=7)
             axx.set_yticks(range(len(vs)), [f"{v:g}" for v in vs], fontsize=7)

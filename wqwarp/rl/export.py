@@ -162,13 +162,23 @@ def policy_metadata(env: WheeledGo1Env, outputs: list[str]) -> dict:
             "running gait continues. The gait part of the observation (phase, frequency, DF_swing, nominal wheel "
             "speeds) always describes the running gait.",
         }
+        candidates = []
+        if p.kinematic_mask:
+            flags = selector.stepless.tolist()
+            stepless = [g for g, no_swing in zip(selector.gait_names, flags, strict=True) if no_swing]
+            candidates.append(f"the gaits other than {', '.join(stepless)} (no swing) if |v_y^cmd| > "
+                              f"{p.kinematic_lateral_limit} m/s or |w^cmd| > {p.kinematic_yaw_limit} rad/s, else every "
+                              "gait")  # fmt: skip
         if selector.tracker is not None:
             meta["gait_selection"]["predicted_tracking_error"] = (
                 "mean (v_x^cmd - v_x)^2 + (v_y^cmd - v_y)^2 + (w^cmd - w_z)^2 over the next horizon_s, per gait")
+            among = " of those" if candidates else ""
+            candidates.append(f"the gaits{among} with predicted_tracking_error <= the minimum{among} + "
+                              f"{p.feasible_margin}")  # fmt: skip
+        if candidates:
             meta["gait_selection"]["rule"] = meta["gait_selection"]["rule"].replace(
                 "request gait = argmin(predicted_power)",
-                f"candidates = gaits with predicted_tracking_error <= its minimum + {p.feasible_margin}; request "
-                "gait = the candidate of least predicted_power")  # fmt: skip
+                f"candidates = {'; then '.join(candidates)}; request gait = the candidate of least predicted_power")
     return meta
 
 

@@ -11,7 +11,9 @@ One interface, three selectors (:func:`make_gait_selector` picks one from ``Gait
                 ``PredictorConfig.criterion = "feasible"`` (beyond the paper) a tracking head predicts each gait's
                 mean squared tracking error over the horizon too; a gait not predicted to track within
                 ``feasible_margin`` of the best one has its odds cut by e^(feasible_penalty / tau) while training
-                and is never the argmin
+                and is never the argmin; ``kinematic`` never offers a gait without swing for a lateral command
+                (nor, above a limit, a turn); ``kinematic_feasible`` applies that mask first and the margin among
+                the gaits it leaves (:meth:`PredictiveGaitSelector.rule_candidates`, the one statement of the rule)
 
 The environment owns a selector and calls it at fixed points of ``step`` (:meth:`GaitSelector.record_step` after the
 physics, :meth:`GaitSelector.on_reset` for robots reset, :meth:`GaitSelector.select` once o_t is known). The
@@ -100,9 +102,18 @@ def tracking_error(commands: torch.Tensor, lin_vel: torch.Tensor, ang_vel: torch
     return ((commands[:, :2] - lin_vel[:, :2]) ** 2).sum(dim=1) + (commands[:, 2] - ang_vel[:, 2]) ** 2
 
 
-def feasible_gaits(error: torch.Tensor, margin: float) -> torch.Tensor:
-    """(B, G) bool: the gaits whose predicted tracking error is within ``margin`` of the row's best (never empty)."""
-    return error <= error.min(dim=-1, keepdim=True).values + margin
+def feasible_gaits(error: torch.Tensor, margin: float, allowed: torch.Tensor | None = None) -> torch.Tensor:
+    """(B, G) bool: the gaits whose predicted tracking error is within ``margin`` of the row's best (never empty).
+    ``allowed`` (same shape, bool; at least one per row): only those gaits count, for the best and as candidates."""
+    if allowed is None:
+        return error <= error.min(dim=-1, keepdim=True).values + margin
+    error = error.masked_fill(~allowed, float("inf"))
+    return allowed & (error <= error.min(dim=-1, keepdim=True).values + margin)
+
+
+def _both(a: torch.Tensor | None, b: torch.Tensor | None) -> torch.Tensor | None:
+    """The gaits in both candidate masks (None: every gait)."""
+    return b if a is None else a if b is None else a & b
 
 
 def gait_probabilities(power: torch.Tensor, temperature: float, candidates: torch.Tensor | None = None) -> torch.Tensor:
@@ -377,13 +388,13 @@ class PredictiveGaitSelector(FixedGaitSelector):
         (built only for that criterion: the paper's rule draws no extra initialisation from torch's RNG)."""
         self.tracker_fitted = False
         """True once the tracking head was fitted: before, every gait is a candidate."""
-        if cfg.criterion == "feasible":
+        if cfg.tracking_head:
             self.tracker = PowerPredictor(obs_dim, self.num_gaits, tuple(cfg.hidden_dims)).to(dev)
             self.tracker_optimizer = torch.optim.Adam(self.tracker.parameters(), lr=cfg.learning_rate)
         self.stepless = torch.tensor(stepless or (False,) * self.num_gaits, dtype=torch.bool, device=dev)
         """Gaits without swing (``make_gait_selector`` reads them from the library): the ``kinematic`` criterion's
         gaits that cannot move the trunk sideways."""
-        if cfg.criterion == "kinematic" and bool(self.stepless.all()):
+        if cfg.kinematic_mask and bool(self.stepless.all()):
             raise ValueError("the kinematic criterion needs a gait with swing in gait.library")
         self.candidates = torch.zeros(2, device=dev)
         """Candidate gaits offered and selections made since the last log (a tensor: no host sync per step)."""
@@ -473,16 +484,14 @@ class PredictiveGaitSelector(FixedGaitSelector):
             unit = power.mean(dim=1, keepdim=True).clamp(min=1.0)  # the robot's mean predicted power
             if cfg.power_normalization == "mean":
                 power, unit = power / unit, 1.0
-            if cfg.criterion == "kinematic":
-                candidates = self.kinematic_candidates(commands[ids])
-            else:
-                candidates = self.candidate_gaits(obs[ids])
+            hard, soft = self.rule_candidates(obs[ids], None if commands is None else commands[ids])
+            candidates = _both(hard, soft)
             if candidates is not None:
                 self.candidates[0] += candidates.sum()
                 self.candidates[1] += len(ids)
-                if cfg.criterion == "feasible" and tau > 0.0:  # softened: odds x e^(-feasible_penalty / tau)
-                    power = power + cfg.feasible_penalty * unit * (~candidates).to(power.dtype)
-                    candidates = None
+                if soft is not None and tau > 0.0:  # softened: odds x e^(-feasible_penalty / tau)
+                    power = power + cfg.feasible_penalty * unit * (~soft).to(power.dtype)
+                    candidates = hard
             probs = gait_probabilities(power, tau, candidates)
             choice = torch.multinomial(probs, 1, generator=self.gen).flatten()
             self.requested[ids] = choice.to(self.requested.dtype)
@@ -511,12 +520,32 @@ class PredictiveGaitSelector(FixedGaitSelector):
         legged = (commands[:, 1].abs() > cfg.kinematic_lateral_limit) | (commands[:, 2].abs() > cfg.kinematic_yaw_limit)
         return ~(legged[:, None] & self.stepless[None, :])
 
-    def candidate_gaits(self, obs: torch.Tensor) -> torch.Tensor | None:
-        """(N, G) bool: the gaits the ``feasible`` criterion offers for o_t; None (every gait) with the ``power``
-        criterion or before the tracking head was fitted."""
+    def candidate_gaits(self, obs: torch.Tensor, allowed: torch.Tensor | None = None) -> torch.Tensor | None:
+        """(N, G) bool: the gaits the ``feasible`` margin offers for o_t among ``allowed`` (every gait if None);
+        None (every gait) without a tracking head or before it was fitted."""
         if self.tracker is None or not self.tracker_fitted:
             return None
-        return feasible_gaits(self.predict_error(obs), self.cfg.feasible_margin)
+        return feasible_gaits(self.predict_error(obs), self.cfg.feasible_margin, allowed)
+
+    def rule_candidates(self, obs: torch.Tensor | None, commands: torch.Tensor | None,
+                        error: torch.Tensor | None = None) -> tuple[torch.Tensor | None, ...]:  # fmt: skip
+        """The criterion's candidates for o_t (N, D) and its commands (N, 3), as two (N, G) bool masks or None
+        (every gait): ``hard``, the kinematic mask, never crossed; ``soft``, the feasible margin (within ``hard``),
+        softened by ``feasible_penalty`` while training at tau > 0 and a mask at the argmin. ``error`` (N, G): the
+        tracking head's prediction to use instead of its output for ``obs`` (the energy map's cell means)."""
+        hard = None
+        if self.cfg.kinematic_mask:
+            if commands is None:
+                raise ValueError(f"the {self.cfg.criterion} criterion needs the robots' commands")
+            hard = self.kinematic_candidates(commands)
+        if error is not None and self.tracker_fitted:
+            return hard, feasible_gaits(error, self.cfg.feasible_margin, hard)
+        return hard, self.candidate_gaits(obs, hard)
+
+    def evaluation_candidates(self, obs: torch.Tensor | None, commands: torch.Tensor | None,
+                              error: torch.Tensor | None = None) -> torch.Tensor | None:  # fmt: skip
+        """(N, G) bool: the gaits the argmin (evaluation, deployment) may select; None: every gait."""
+        return _both(*self.rule_candidates(obs, commands, error))
 
     # --- learning ----------------------------------------------------------------------------------------------------
     def _store(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor, e: torch.Tensor) -> None:
