@@ -275,6 +275,39 @@ def test_protocols_name_the_gaits_of_the_checkpoints_library(tmp_path, save_chec
     assert list(cell["measured_p_cost"]) == list(cell["predicted_p_cost"]) == names and png.stat().st_size > 0
 
 
+def test_the_selection_criterion_can_be_swapped_at_evaluation_on_one_policy(tmp_path):
+    """``--criterion`` evaluates one policy under another gait selection rule: a checkpoint trained with the kinematic
+    mask whose predictor calls driving the cheapest gait never drives a lateral command under its own rule, and
+    drives it under the paper's power rule; the result records the rule it ran. A rule that needs a tracking head is
+    a one-line error on a checkpoint without one."""
+    from helpers import quiet_runner
+
+    from wqwarp.eval.protocols import make_options, run_protocol
+
+    cfg = make_preset("ours")
+    cfg.sim.num_envs = 1
+    cfg.predictor.criterion = "kinematic"
+    runner = quiet_runner(cfg)
+    with torch.no_grad():
+        for prm in runner.env.gait_selector.predictor.net.parameters():
+            prm.zero_()
+        runner.env.gait_selector.predictor.net[-1].bias.copy_(torch.tensor([-3.0, 3.0, 1.0]))  # driving cheapest
+    path = str(tmp_path / "model_0.pt")
+    runner.save(path)
+    log = io.StringIO()
+    usage = {}
+    for criterion in (None, "power"):
+        out = run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vy", num_envs=2, seconds=3.0,
+                                                    criterion=criterion), log)  # fmt: skip
+        assert out["config"]["predictor"]["criterion"] == (criterion or "kinematic")
+        usage[criterion] = out["results"][0]["gait_usage"]["driving"]
+    assert usage[None] == 0.0 and usage["power"] > 0.9, usage
+    with pytest.raises(ValueError, match="criterion kinematic_feasible needs a tracking head; model_0.pt was trained "
+                                         "with kinematic and has none"):  # fmt: skip
+        run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vy", num_envs=1, seconds=2.1,
+                                              criterion="kinematic_feasible"), log)  # fmt: skip
+
+
 def test_the_lateral_probe_reports_per_command_and_per_gait(tmp_path, save_checkpoint):
     """Rows per held v_y command with the achieved v_y, w_z, the commanded foot-y stroke, the posture and the
     phase-residual spread; --per-gait on a predictive checkpoint runs every gait forced, and each forced run ran only

@@ -72,12 +72,13 @@ def checkpoint_gait_names(path: str) -> tuple[str, ...]:
 def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, device: str = "cpu",
                        cfg: EnvConfig | None = None, dt: float | None = None,
                        evaluation_selection: str | None = None, physics: str = "train",
-                       seed: int | None = None) -> PolicyRunner:  # fmt: skip
+                       seed: int | None = None, criterion: str | None = None) -> PolicyRunner:  # fmt: skip
     """Build the environment from the configuration stored in ``checkpoint`` (with ``evaluation_config``'s named
     overrides; ``cfg`` replaces it entirely) and load the policy, estimator and gait selector. ``preset`` is the
     label of the results; if given it must match how the checkpoint was trained. Raises ValueError for a missing
     file, a checkpoint without a readable configuration, another observation/action layout, a wrong preset, a dt
-    that does not divide the policy step, or an unknown ``physics`` (``wqwarp.eval.physics.PHYSICS_VARIANTS``)."""
+    that does not divide the policy step, an unknown ``physics`` (``wqwarp.eval.physics.PHYSICS_VARIANTS``), or a
+    ``criterion`` (overriding the checkpoint's gait selection rule) that the checkpoint cannot run."""
     from wqwarp.rl.runner import WqRunner
 
     if not os.path.isfile(checkpoint):
@@ -89,7 +90,8 @@ def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, devic
             check_preset(preset, trained, checkpoint)
         recorded = recorded or infer_preset(trained)
         cfg = evaluation_config(
-            trained, num_envs, device, dt=dt, evaluation_selection=evaluation_selection, physics=physics, seed=seed
+            trained, num_envs, device, dt=dt, evaluation_selection=evaluation_selection, physics=physics, seed=seed,
+            criterion=criterion,
         )
     preset = preset or recorded or "unknown"
     env = WheeledGo1Env(cfg)
@@ -97,5 +99,12 @@ def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, devic
     with contextlib.redirect_stdout(io.StringIO()):
         runner = WqRunner(env, TrainConfig().rsl_rl_dict(), log_dir=None, device=env.device)
     runner.load(checkpoint)
+    if criterion is not None:
+        sel = env.gait_selector
+        if sel.name != "predictive":
+            raise ValueError(f"a selection criterion needs a predictive preset, not {preset}")
+        if env.cfg.predictor.tracking_head and not sel.tracker_fitted:
+            raise ValueError(f"criterion {criterion} needs a tracking head; {os.path.basename(checkpoint)} was trained "
+                             f"with {trained.predictor.criterion} and has none")  # fmt: skip
     policy = runner.get_inference_policy(device=env.device)
     return PolicyRunner(env=env, policy=policy, preset=preset, iteration=int(runner.current_learning_iteration))

@@ -61,14 +61,16 @@ def evaluation_config(
     dt: float | None = None,
     domain_randomisation: bool = False,
     evaluation_selection: str | None = None,
+    criterion: str | None = None,
     physics: str = "train",
     seed: int | None = None,
 ) -> EnvConfig:
     """A new config for evaluation from a checkpoint's ``trained`` one, with these named overrides only: robot count,
     device, domain randomisation and pushes (off by default; the protocol applies its own pushes), the physics step
     ``dt`` [s] (the 50 Hz policy step is kept: decimation = policy step / dt), the predictive selection outside
-    training (``argmin`` or ``sample``), a :data:`PHYSICS_VARIANTS` entry (its dt yields to an explicit ``dt``) and
-    the env's random ``seed`` (spawn yaws, pushes, sampled gaits). ``trained`` is not modified."""
+    training (``argmin`` or ``sample``), the selection ``criterion`` (a rule A/B on one policy), a
+    :data:`PHYSICS_VARIANTS` entry (its dt yields to an explicit ``dt``) and the env's random ``seed`` (spawn yaws,
+    pushes, sampled gaits). ``trained`` is not modified."""
     variant = physics_variant(physics)
     dt = dt if dt is not None else variant.dt
     cfg = copy.deepcopy(trained)
@@ -88,4 +90,6 @@ def evaluation_config(
         cfg.sim.dt, cfg.sim.decimation = dt, dec
     if evaluation_selection is not None:
         cfg.predictor.evaluation_selection = evaluation_selection
+    if criterion is not None:
+        cfg.predictor.criterion = criterion
     return cfg

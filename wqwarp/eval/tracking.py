@@ -21,6 +21,7 @@ from wqwarp.eval.metrics import PUSH_TASKS, TASKS, EvalResult, TaskMetrics, chec
 from wqwarp.eval.options import ProtocolOptions, option
 from wqwarp.eval.physics import PHYSICS_VARIANTS, physics_variant
 from wqwarp.eval.rollout import base_velocity, evaluation_session, start_rollout
+from wqwarp.rl.config import SELECTION_CRITERIA
 from wqwarp.rl.gait_selection import usage_from_scalars
 from wqwarp.rl.presets import PRESETS
 
@@ -135,6 +136,10 @@ class TrackingOptions(ProtocolOptions):
     force_gait: str | None = option(None, help="predictive presets, diagnostics: run this gait of the checkpoint's "
                                     "library instead of the selected one; the predictor's forecast for it is "
                                     "reported beside the realised power")  # fmt: skip
+    criterion: str | None = option(None, choices=SELECTION_CRITERIA, help="predictive presets: select gaits by this "
+                                   "criterion instead of the checkpoint's (a rule A/B on one policy; nothing "
+                                   "learns); feasible and kinematic_feasible need a checkpoint with a tracking "
+                                   "head")  # fmt: skip
     zero_residual: bool = option(False, help="diagnostics, presets with a nominal gait: every action 0 instead of "
                                  "the policy's (the nominal gait with no residual); with --tasks stand,vx "
                                  "--force-gait driving it measures the floor the learned residual's power is "
@@ -206,7 +211,7 @@ def _load(opts: TrackingOptions, phys: str):
 
     runner = make_policy_runner(opts.checkpoint, opts.preset, opts.num_envs, opts.device, dt=opts.dt,
                                 evaluation_selection="sample" if opts.sample_gaits else None, physics=phys,
-                                seed=opts.seed)  # fmt: skip
+                                seed=opts.seed, criterion=opts.criterion)  # fmt: skip
     if opts.zero_residual:
         if not runner.env.residual_mode:
             raise ValueError(f"--zero-residual needs a preset with a nominal gait (a residual policy), not "

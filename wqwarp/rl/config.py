@@ -29,6 +29,7 @@ EvaluationSelection = Literal["argmin", "sample"]
 """Gait selection outside training (:attr:`PredictorConfig.evaluation_selection`)."""
 SelectionCriterion = Literal["power", "feasible", "kinematic", "kinematic_feasible"]
 """What the predictive selector ranks (:attr:`PredictorConfig.criterion`)."""
+SELECTION_CRITERIA: tuple[str, ...] = typing.get_args(SelectionCriterion)
 LabelSource = Literal["policy", "mean"]
 """Which actions the predictor's labelled windows come from (:attr:`PredictorConfig.label_source`)."""
 PhaseResidualMode = Literal["offset", "increment"]
