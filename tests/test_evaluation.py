@@ -286,7 +286,7 @@ def test_the_selection_criterion_can_be_swapped_at_evaluation_on_one_policy(tmp_
 
     cfg = make_preset("ours")
     cfg.sim.num_envs = 1
-    cfg.predictor.criterion = "kinematic"
+    cfg.predictor.criterion, cfg.predictor.kinematic_yaw_limit = "kinematic", 0.2  # as the omni profile
     runner = quiet_runner(cfg)
     with torch.no_grad():
         for prm in runner.env.gait_selector.predictor.net.parameters():
@@ -302,6 +302,12 @@ def test_the_selection_criterion_can_be_swapped_at_evaluation_on_one_policy(tmp_
         assert out["config"]["predictor"]["criterion"] == (criterion or "kinematic")
         usage[criterion] = out["results"][0]["gait_usage"]["driving"]
     assert usage[None] == 0.0 and usage["power"] > 0.9, usage
+    selected = {}
+    for criterion in (None, "power"):  # the energy map's per-cell choice follows the same rule
+        emap = run_protocol("energymap", make_options("energymap", checkpoint=path, grid=2, seconds=0.2,
+                                                      criterion=criterion), log)  # fmt: skip
+        selected[criterion] = {c["selected"] for c in emap["cells"]}  # every cell: |v_y| or |w| = 0.7
+    assert selected == {None: {"walking"}, "power": {"driving"}}
     with pytest.raises(ValueError, match="criterion kinematic_feasible needs a tracking head; model_0.pt was trained "
                                          "with kinematic and has none"):  # fmt: skip
         run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vy", num_envs=1, seconds=2.1,

@@ -30,7 +30,7 @@ from typing import TextIO
 import numpy as np
 import torch
 
-from wqwarp.eval.options import ProtocolOptions, option
+from wqwarp.eval.options import SelectionOptions, option
 from wqwarp.eval.rollout import evaluation_session, start_rollout
 from wqwarp.rl.gait_selection import tracking_error
 
@@ -141,7 +141,7 @@ def cell_means(m: dict, key: str, cells: int) -> torch.Tensor | None:
 
 
 @dataclass(kw_only=True)
-class EnergyMapOptions(ProtocolOptions):
+class EnergyMapOptions(SelectionOptions):
     """Options of the energy-map protocol (``tools/gait_energy_map.py``)."""
 
     grid: int = option(5, help="values per command axis (default 5: 2 x 25 cells)")
@@ -163,7 +163,8 @@ def energy_map(opts: EnergyMapOptions, log: TextIO) -> dict:
     cells = grid_commands(opts.grid)
     gaits = list(checkpoint_gait_names(opts.checkpoint))  # one robot per gait of the run's library and cell
     g = len(gaits)
-    runner = make_policy_runner(opts.checkpoint, None, len(cells) * g, opts.device, seed=opts.seed)
+    runner = make_policy_runner(opts.checkpoint, None, len(cells) * g, opts.device, seed=opts.seed,
+                                criterion=opts.criterion)  # fmt: skip
     dev = runner.env.device
     cmd = torch.tensor([c for _, c in cells for _ in range(g)], dtype=torch.float32, device=dev)  # robot = cell*g+k
 

@@ -16,7 +16,7 @@ from typing import TextIO
 import torch
 import warp as wp
 
-from wqwarp.eval.options import ProtocolOptions, option
+from wqwarp.eval.options import SelectionOptions, option
 from wqwarp.eval.rollout import base_velocity, evaluation_session, start_rollout
 
 RATIO_TOLERANCE = 0.3
@@ -26,7 +26,7 @@ YAW_LIMIT = 0.2
 
 
 @dataclass(kw_only=True)
-class LateralOptions(ProtocolOptions):
+class LateralOptions(SelectionOptions):
     """Options of the pure-lateral probe (``train/evaluate.py --protocol lateral``)."""
 
     commands: str = option("-0.6,-0.3,0.3,0.6", help="comma-separated held v_y commands [m/s] (default "
@@ -111,7 +111,7 @@ def lateral(opts: LateralOptions, log: TextIO) -> dict:
     opts.validate()
     commands = opts.command_list()
     runner = make_policy_runner(opts.checkpoint, None, len(commands) * opts.robots_per_command, opts.device,
-                                seed=opts.seed)  # fmt: skip
+                                seed=opts.seed, criterion=opts.criterion)  # fmt: skip
     env = runner.env
     runs = [("selected", None)]
     if opts.per_gait:

@@ -9,6 +9,8 @@ import argparse
 import shlex
 from dataclasses import MISSING, dataclass, field, fields
 
+from wqwarp.rl.config import SELECTION_CRITERIA
+
 
 def option(default=MISSING, help: str = "", **argparse_kwargs):  # noqa: A002 - argparse's own name
     """A dataclass field that is also a command-line option: ``help`` and any ``argparse`` keywords (``type``,
@@ -38,6 +40,17 @@ class ProtocolOptions:
         """Flag -> path of every result file this run writes (checked writable before any work)."""
         return {flag(f.name): getattr(self, f.name) for f in fields(self) if f.metadata.get("output")
                 and getattr(self, f.name)}  # fmt: skip
+
+
+@dataclass(kw_only=True)
+class SelectionOptions(ProtocolOptions):
+    """The options of a protocol that runs a predictive checkpoint's gait selection: ``--criterion`` runs the policy
+    under another selection rule than the one it was trained with (a rule A/B with the network held fixed)."""
+
+    criterion: str | None = option(None, choices=SELECTION_CRITERIA,
+                                   help="predictive presets: select gaits by this criterion instead of the "
+                                   "checkpoint's (a rule A/B on one policy; nothing learns); feasible and "
+                                   "kinematic_feasible need a checkpoint with a tracking head")  # fmt: skip
 
 
 def add_options(parser: argparse.ArgumentParser, cls: type[ProtocolOptions], defaults: dict | None = None) -> None:

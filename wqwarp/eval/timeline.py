@@ -15,7 +15,7 @@ from typing import TextIO
 
 import torch
 
-from wqwarp.eval.options import ProtocolOptions, option
+from wqwarp.eval.options import SelectionOptions, option
 from wqwarp.eval.rollout import base_velocity, evaluation_session, start_rollout
 
 Segments = list[tuple[tuple[float, float, float], float]]
@@ -106,7 +106,7 @@ def _run_timeline(runner, segments: Segments) -> tuple[list[dict], dict, torch.T
 
 
 @dataclass(kw_only=True)
-class TimelineOptions(ProtocolOptions):
+class TimelineOptions(SelectionOptions):
     """Options of the timeline protocol (``tools/gait_sequence.py``)."""
 
     preset: str | None = option(None, help="preset of the checkpoint (default: from its run's config.json)")
@@ -131,7 +131,8 @@ def timeline(opts: TimelineOptions, log: TextIO) -> dict:
 
     opts.validate()
     t0 = time.time()
-    runner = make_policy_runner(opts.checkpoint, opts.preset, opts.robots, opts.device, seed=opts.seed)
+    runner = make_policy_runner(opts.checkpoint, opts.preset, opts.robots, opts.device, seed=opts.seed,
+                                criterion=opts.criterion)  # fmt: skip
     summary, series, fell = run_timeline(runner, parse_segments(opts.segments))
     print(f"{runner.preset} checkpoint (iteration {runner.iteration}), {opts.robots} robots; fell: {int(fell.sum())}",
           file=log)  # fmt: skip

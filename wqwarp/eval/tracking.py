@@ -18,10 +18,9 @@ import torch
 
 from wqwarp.control.gaits import gait_index
 from wqwarp.eval.metrics import PUSH_TASKS, TASKS, EvalResult, TaskMetrics, check_task, physics_delta
-from wqwarp.eval.options import ProtocolOptions, option
+from wqwarp.eval.options import SelectionOptions, option
 from wqwarp.eval.physics import PHYSICS_VARIANTS, physics_variant
 from wqwarp.eval.rollout import base_velocity, evaluation_session, start_rollout
-from wqwarp.rl.config import SELECTION_CRITERIA
 from wqwarp.rl.gait_selection import usage_from_scalars
 from wqwarp.rl.presets import PRESETS
 
@@ -112,7 +111,7 @@ SIM2SIM_CHOICES = tuple(k for k in PHYSICS_VARIANTS if k != "train")
 
 
 @dataclass(kw_only=True)
-class TrackingOptions(ProtocolOptions):
+class TrackingOptions(SelectionOptions):
     """Options of the tracking, push and sim-to-sim protocols (``train/evaluate.py``)."""
 
     preset: str | None = option(None, choices=tuple(PRESETS), help="label of the results; must be the method the "
@@ -136,10 +135,6 @@ class TrackingOptions(ProtocolOptions):
     force_gait: str | None = option(None, help="predictive presets, diagnostics: run this gait of the checkpoint's "
                                     "library instead of the selected one; the predictor's forecast for it is "
                                     "reported beside the realised power")  # fmt: skip
-    criterion: str | None = option(None, choices=SELECTION_CRITERIA, help="predictive presets: select gaits by this "
-                                   "criterion instead of the checkpoint's (a rule A/B on one policy; nothing "
-                                   "learns); feasible and kinematic_feasible need a checkpoint with a tracking "
-                                   "head")  # fmt: skip
     zero_residual: bool = option(False, help="diagnostics, presets with a nominal gait: every action 0 instead of "
                                  "the policy's (the nominal gait with no residual); with --tasks stand,vx "
                                  "--force-gait driving it measures the floor the learned residual's power is "
