@@ -302,12 +302,16 @@ def test_the_selection_criterion_can_be_swapped_at_evaluation_on_one_policy(tmp_
         assert out["config"]["predictor"]["criterion"] == (criterion or "kinematic")
         usage[criterion] = out["results"][0]["gait_usage"]["driving"]
     assert usage[None] == 0.0 and usage["power"] > 0.9, usage
-    selected = {}
+    selected, measured = {}, {}
     for criterion in (None, "power"):  # the energy map's per-cell choice follows the same rule
-        emap = run_protocol("energymap", make_options("energymap", checkpoint=path, grid=2, seconds=0.2,
+        emap = run_protocol("energymap", make_options("energymap", checkpoint=path, grid=2, seconds=0.4,
                                                       criterion=criterion), log)  # fmt: skip
         selected[criterion] = {c["selected"] for c in emap["cells"]}  # every cell: |v_y| or |w| = 0.7
+        measured[criterion] = [c["measured_p_cost"] for c in emap["cells"]]
     assert selected == {None: {"walking"}, "power": {"driving"}}
+    # each robot runs its forced gait from the reset, not the gait the rule chose before: the rule changes no
+    # measurement
+    assert measured[None] == measured["power"]
     with pytest.raises(ValueError, match="criterion kinematic_feasible needs a tracking head; model_0.pt was trained "
                                          "with kinematic and has none"):  # fmt: skip
         run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vy", num_envs=1, seconds=2.1,

@@ -50,7 +50,7 @@ def sweep(runner, vx: float, offsets: list[float], patterns: list[str], gait_id:
     from wqwarp.eval.wheel_probe import rollout
 
     env = runner.env
-    env.gait_selector.forced_gait = gait_id
+    env.gait_selector.force(gait_id)
     scale = float(env.cfg.action.wheel_scale)
     everything = ("phase", "foot", "wheel")
     runs = [("nominal", 0.0)] + [(p, d) for p in patterns for d in offsets]

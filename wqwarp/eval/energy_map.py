@@ -66,7 +66,7 @@ def measure_forced_gaits(runner, commands: torch.Tensor, gaits: torch.Tensor, se
     if sel.name != "predictive":
         raise ValueError(f"the energy map needs a predictive preset (ours, no_wheel_vel), not {runner.preset}")
     with evaluation_session(env):
-        sel.forced_gait = gaits
+        sel.force(gaits)
         obs = start_rollout(env, commands, seconds)
         steps = max(2, int(round(seconds / env.dt)))
         n, dev = env.num_envs, env.device

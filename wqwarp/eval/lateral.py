@@ -58,7 +58,7 @@ def probe(runner, commands: list[float], per_command: int, seconds: float, force
     n = env.num_envs
     with evaluation_session(env):
         if forced_gait is not None:
-            sel.forced_gait = forced_gait
+            sel.force(forced_gait)
         cmd = torch.zeros(n, 3, device=env.device)
         cmd[:, 1] = torch.tensor(commands, device=env.device).repeat_interleave(per_command)
         obs = start_rollout(env, cmd, seconds)

@@ -62,7 +62,7 @@ def _run_task(runner, task, seconds, settle, max_push, push_interval, progress, 
     if forced_gait is not None:
         if not predictive:
             raise ValueError(f"a forced gait needs the predictive gait selection, not {sel.name!r}")
-        sel.forced_gait = forced_gait
+        sel.force(forced_gait)
     cmd = spread_commands(task, n, rng).to(env.device)
     obs = start_rollout(env, cmd, seconds)  # every observation, also after a reset, carries the task's command
     steps = int(round(seconds / env.dt))

@@ -467,6 +467,13 @@ class PredictiveGaitSelector(FixedGaitSelector):
     def request_selection(self) -> None:
         self.due[:] = True
 
+    def force(self, gait: int | torch.Tensor) -> None:
+        """Diagnostics: request ``gait`` (an index, or one per robot as an (N,) tensor) instead of selecting, from
+        now on: the request is written at once, so a reset starts the robots in it (not in the gait the rule chose
+        before, which would run until the continuity rule let the forced one in)."""
+        self.forced_gait = gait
+        self.requested[:] = gait.to(self.requested) if torch.is_tensor(gait) else gait
+
     @torch.no_grad()
     def select(self, obs: torch.Tensor, active: torch.Tensor, commands: torch.Tensor | None = None) -> None:
         active = active.long()
