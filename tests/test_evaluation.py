@@ -318,6 +318,33 @@ def test_the_selection_criterion_can_be_swapped_at_evaluation_on_one_policy(tmp_
                                               criterion="kinematic_feasible"), log)  # fmt: skip
 
 
+def test_the_energy_maps_rule_summary_on_hand_values():
+    from wqwarp.eval.energy_map import rule_summary
+
+    def cell(err, pred_err, selected, winner, fell=()):
+        return {"sq_velocity_error": dict(zip("dtw", err, strict=True)), "selected": selected,
+                "predicted_sq_velocity_error": dict(zip("dtw", pred_err, strict=True)),
+                "measured_winner_tracking": winner, "fell": {g: g in fell for g in "dtw"}}  # fmt: skip
+
+    cells = [cell((0.01, 0.02, 0.03), (0.20, 0.10, 0.30), "t", "d"),  # trots where driving tracks cheaper
+             cell((0.50, 0.04, 0.30), (0.01, 0.05, 0.20), "t", "t"),  # lateral: driving is no candidate
+             cell((0.50, 0.40, 0.30), (0.30, 0.20, 0.40), "w", None, fell=("w",))]  # nothing tracks; w fell
+    kinematic = torch.tensor([[True, True, True], [False, True, True], [False, True, True]])
+    out = rule_summary(cells, kinematic)
+    assert {k: out[k] for k in ("selects_cheapest_tracking", "cells_with_a_tracking_gait",
+                                "selects_a_tracking_gait")} == {"selects_cheapest_tracking": 1,
+                                                                "cells_with_a_tracking_gait": 2,
+                                                                "selects_a_tracking_gait": 2}  # fmt: skip
+    # head argmin vs measured best among the candidates: cell 0 t vs d (no), cell 1 t vs t (yes), cell 2 t vs w (no)
+    assert out["tracking_head"]["argmin_is_best_tracker"] == 1
+    assert out["tracking_head"]["robot_cells_tracking"] == 4  # d, t, w of cell 0 and t of cell 1
+    assert out["tracking_head"]["median_predicted_where_tracking"] == pytest.approx((0.10 + 0.20) / 2)
+    # without the kinematic mask the head's d (0.01) wins cell 1, where t tracks best
+    assert rule_summary(cells, None)["tracking_head"]["argmin_is_best_tracker"] == 0
+    no_head = [{k: v for k, v in c.items() if k != "predicted_sq_velocity_error"} for c in cells]
+    assert "tracking_head" not in rule_summary(no_head, kinematic)
+
+
 def test_the_lateral_probe_reports_per_command_and_per_gait(tmp_path, save_checkpoint):
     """Rows per held v_y command with the achieved v_y, w_z, the commanded foot-y stroke, the posture and the
     phase-residual spread; --per-gait on a predictive checkpoint runs every gait forced, and each forced run ran only

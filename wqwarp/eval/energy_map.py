@@ -184,14 +184,51 @@ def energy_map(opts: EnergyMapOptions, log: TextIO) -> dict:
     untracked = sum(cl["measured_winner"] != cl["measured_winner_tracking"] for cl in out_cells)
     print(f"cells where the cheapest gait does not track its command (squared error > {TRACKING_LIMIT}): {untracked}",
           file=log)  # fmt: skip
-    hit = sum(cl["selected"] == cl["measured_winner_tracking"] for cl in out_cells if cl["measured_winner_tracking"])
-    told = sum(1 for cl in out_cells if cl["measured_winner_tracking"])
-    print(f"{runner.env.cfg.predictor.criterion} criterion: selects the cheapest gait that tracks in {hit}/{told} "
-          "cells", file=log)  # fmt: skip
+    sel = runner.env.gait_selector
+    rule = rule_summary(out_cells, sel.kinematic_candidates(cell_cmd) if sel.cfg.kinematic_mask else None)
+    print(f"{runner.env.cfg.predictor.criterion} criterion: selects the cheapest gait that tracks in "
+          f"{rule['selects_cheapest_tracking']}/{rule['cells_with_a_tracking_gait']} cells, a gait that tracks in "
+          f"{rule['selects_a_tracking_gait']}/{len(out_cells)}", file=log)  # fmt: skip
+    if "tracking_head" in rule:
+        head = rule["tracking_head"]
+        print(f"tracking head: its argmin among the candidates is the measured best tracker in "
+              f"{head['argmin_is_best_tracker']}/{len(out_cells)} cells; where a gait tracks, it predicts "
+              f"{head['median_predicted_where_tracking']:.3f} (median; measured <= {TRACKING_LIMIT})", file=log)
     return {"checkpoint": opts.checkpoint, "preset": runner.preset, "iteration": runner.iteration,
             "seed": opts.seed, "grid": opts.grid, "seconds": opts.seconds, "wall_time_s": time.time() - t0,
             "winner_agreement": sum(agree) / max(len(agree), 1), "tracking_limit": TRACKING_LIMIT,
-            "cheapest_does_not_track": untracked, "cells": out_cells, "config": to_dict(runner.env.cfg)}  # fmt: skip
+            "cheapest_does_not_track": untracked, "criterion": runner.env.cfg.predictor.criterion, "rule": rule,
+            "cells": out_cells, "config": to_dict(runner.env.cfg)}  # fmt: skip
+
+
+def rule_summary(cells: list[dict], kinematic: torch.Tensor | None) -> dict:
+    """How the rule's per-cell ``selected`` gait fares on the measured map: in how many cells it is the cheapest gait
+    that tracks (of the cells where one does), in how many it tracks at all (upright, squared error at most
+    :data:`TRACKING_LIMIT`); with a tracking head, in how many cells the head's argmin among the rule's kinematic
+    candidates (``kinematic`` (cells, G) rows; every gait where None) is the measured best tracker among them, and
+    the head's median prediction over the robot-cells whose gait tracks."""
+
+    def tracks(cell: dict, gait: str) -> bool:
+        return not cell["fell"][gait] and cell["sq_velocity_error"][gait] <= TRACKING_LIMIT
+
+    out = {"selects_cheapest_tracking": sum(c["selected"] == c["measured_winner_tracking"] for c in cells
+                                            if c["measured_winner_tracking"]),
+           "cells_with_a_tracking_gait": sum(1 for c in cells if c["measured_winner_tracking"]),
+           "selects_a_tracking_gait": sum(tracks(c, c["selected"]) for c in cells)}  # fmt: skip
+    if "predicted_sq_velocity_error" not in cells[0]:
+        return out
+    best = 0
+    where_tracking = []
+    for i, c in enumerate(cells):
+        pred, meas = c["predicted_sq_velocity_error"], c["sq_velocity_error"]
+        gaits = list(meas)
+        kin = gaits if kinematic is None else [g for k, g in enumerate(gaits) if bool(kinematic[i, k])]
+        best += min(kin, key=pred.get) == min(kin, key=meas.get)
+        where_tracking += [pred[g] for g in gaits if tracks(c, g)]
+    out["tracking_head"] = {"argmin_is_best_tracker": best,
+                            "median_predicted_where_tracking": float(np.median(where_tracking)) if where_tracking
+                            else float("nan"), "robot_cells_tracking": len(where_tracking)}  # fmt: skip
+    return out
 
 
 def draw_energy_map(result: dict, path: str, command: str | None = None) -> None:
