@@ -15,6 +15,7 @@ from wqwarp.rl.gait_selection import (
     PredictiveGaitSelector,
     TemperatureSchedule,
     WindowLabeler,
+    both_candidates,
     command_type,
     feasible_gaits,
     gait_probabilities,
@@ -285,7 +286,7 @@ def test_kinematic_feasible_sends_a_lateral_command_to_the_cheapest_stepping_gai
         sel.select(torch.zeros(2, 2), torch.ones(2, dtype=torch.long), lateral_and_forward)
         picks[criterion] = sel.requested.tolist()
         # the energy map asks the same rule with a cell's mean prediction in place of the head's output
-        cand = sel.evaluation_candidates(None, lateral_and_forward, err[:2])
+        cand = both_candidates(*sel.rule_candidates(None, lateral_and_forward, err[:2]))
         if criterion == "kinematic_feasible":
             assert cand.tolist() == [[False, True, False], [True, False, False]]
     assert picks == {"feasible": [0, 0], "kinematic": [2, 0], "kinematic_feasible": [1, 0]}

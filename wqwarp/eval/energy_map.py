@@ -10,7 +10,7 @@ the same steps of the predictor's output for that gait, from the observations of
 winner is the cheapest gait whose robot stayed up, the tracking winner the cheapest whose robot also tracked its
 command (squared velocity error at most :data:`TRACKING_LIMIT`); the predicted winner is the argmin of the
 predictions over every gait (what the paper's rule selects), ``selected`` the gait the checkpoint's own criterion
-selects from the cell's mean predictions and its command (``PredictiveGaitSelector.evaluation_candidates``: the
+selects from the cell's mean predictions and its command (``PredictiveGaitSelector.rule_candidates``, both masks: the
 same as the predicted winner with the paper's ``power`` rule; with ``kinematic`` never driving for a lateral
 command; with a tracking head, ``feasible`` or ``kinematic_feasible``, the cheapest gait predicted to track, whose
 predicted squared error per gait is reported too).
@@ -32,7 +32,7 @@ import torch
 
 from wqwarp.eval.options import SelectionOptions, option
 from wqwarp.eval.rollout import evaluation_session, start_rollout
-from wqwarp.rl.gait_selection import tracking_error
+from wqwarp.rl.gait_selection import both_candidates, tracking_error
 
 RANGES = {"vx": (-1.0, 1.0), "vy": (-0.7, 0.7), "wz": (-0.7, 0.7)}
 AXES = {"vx": 0, "vy": 1, "wz": 2}
@@ -99,6 +99,11 @@ def measure_forced_gaits(runner, commands: torch.Tensor, gaits: torch.Tensor, se
     return out
 
 
+def tracks_command(sq_error: float, fell: bool) -> bool:
+    """Whether a robot counts as tracking its command: upright, squared velocity error at most TRACKING_LIMIT."""
+    return not fell and sq_error <= TRACKING_LIMIT
+
+
 def _cheapest(gaits: list[str], power: torch.Tensor, candidates: list[int]) -> str | None:
     """The gait of ``candidates`` (indices) with the lowest ``power``, or None if there are none."""
     return gaits[min(candidates, key=lambda k: float(power[k]))] if candidates else None
@@ -115,7 +120,7 @@ def summarise_cells(cells: list, gaits: list[str], m: dict, allowed: torch.Tenso
                                                                                   "wrong_gait")}  # fmt: skip
         predicted = {gaits[k]: float(cell["pred"].mean(0)[k]) for k in range(g)}  # from all the cell's robots' obs
         up = [k for k in range(g) if not bool(cell["fell"][k])]
-        ok = [k for k in up if float(cell["err"][k]) <= TRACKING_LIMIT]
+        ok = [k for k in up if tracks_command(float(cell["err"][k]), False)]
         out.append({
             "plane": plane, "command": list(command), "measured_p_cost": per["p"],
             "measured_p_cost_legs": per["legs"], "measured_p_cost_wheels": per["wheels"],
@@ -174,8 +179,9 @@ def energy_map(opts: EnergyMapOptions, log: TextIO) -> dict:
 
     m = measure_forced_gaits(runner, cmd, torch.arange(g, device=dev).repeat(len(cells)), opts.seconds, progress)
     cell_cmd = torch.tensor([c for _, c in cells], dtype=torch.float32, device=dev)
-    allowed = runner.env.gait_selector.evaluation_candidates(None, cell_cmd, cell_means(m, "pred_err", len(cells)))
-    out_cells = summarise_cells(cells, gaits, m, allowed)
+    sel = runner.env.gait_selector
+    kinematic, feasible = sel.rule_candidates(None, cell_cmd, cell_means(m, "pred_err", len(cells)))
+    out_cells = summarise_cells(cells, gaits, m, both_candidates(kinematic, feasible))
     agree = [cl["measured_winner"] == cl["predicted_winner"] for cl in out_cells if cl["measured_winner"]]
     print(f"\r{runner.preset} checkpoint (iteration {runner.iteration}): {len(cells)} cells x {g} gaits, "
           f"{opts.seconds:g} s; predicted winner = measured winner in {sum(agree)}/{len(agree)} cells", file=log)
@@ -184,8 +190,7 @@ def energy_map(opts: EnergyMapOptions, log: TextIO) -> dict:
     untracked = sum(cl["measured_winner"] != cl["measured_winner_tracking"] for cl in out_cells)
     print(f"cells where the cheapest gait does not track its command (squared error > {TRACKING_LIMIT}): {untracked}",
           file=log)  # fmt: skip
-    sel = runner.env.gait_selector
-    rule = rule_summary(out_cells, sel.kinematic_candidates(cell_cmd) if sel.cfg.kinematic_mask else None)
+    rule = rule_summary(out_cells, kinematic)
     print(f"{runner.env.cfg.predictor.criterion} criterion: selects the cheapest gait that tracks in "
           f"{rule['selects_cheapest_tracking']}/{rule['cells_with_a_tracking_gait']} cells, a gait that tracks in "
           f"{rule['selects_a_tracking_gait']}/{len(out_cells)}", file=log)  # fmt: skip
@@ -209,7 +214,7 @@ def rule_summary(cells: list[dict], kinematic: torch.Tensor | None) -> dict:
     the head's median prediction over the robot-cells whose gait tracks."""
 
     def tracks(cell: dict, gait: str) -> bool:
-        return not cell["fell"][gait] and cell["sq_velocity_error"][gait] <= TRACKING_LIMIT
+        return tracks_command(cell["sq_velocity_error"][gait], cell["fell"][gait])
 
     out = {"selects_cheapest_tracking": sum(c["selected"] == c["measured_winner_tracking"] for c in cells
                                             if c["measured_winner_tracking"]),

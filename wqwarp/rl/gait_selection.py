@@ -111,7 +111,7 @@ def feasible_gaits(error: torch.Tensor, margin: float, allowed: torch.Tensor | N
     return allowed & (error <= error.min(dim=-1, keepdim=True).values + margin)
 
 
-def _both(a: torch.Tensor | None, b: torch.Tensor | None) -> torch.Tensor | None:
+def both_candidates(a: torch.Tensor | None, b: torch.Tensor | None) -> torch.Tensor | None:
     """The gaits in both candidate masks (None: every gait)."""
     return b if a is None else a if b is None else a & b
 
@@ -492,7 +492,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
             if cfg.power_normalization == "mean":
                 power, unit = power / unit, 1.0
             hard, soft = self.rule_candidates(obs[ids], None if commands is None else commands[ids])
-            candidates = _both(hard, soft)
+            candidates = both_candidates(hard, soft)
             if candidates is not None:
                 self.candidates[0] += candidates.sum()
                 self.candidates[1] += len(ids)
@@ -548,11 +548,6 @@ class PredictiveGaitSelector(FixedGaitSelector):
         if error is not None and self.tracker_fitted:
             return hard, feasible_gaits(error, self.cfg.feasible_margin, hard)
         return hard, self.candidate_gaits(obs, hard)
-
-    def evaluation_candidates(self, obs: torch.Tensor | None, commands: torch.Tensor | None,
-                              error: torch.Tensor | None = None) -> torch.Tensor | None:  # fmt: skip
-        """(N, G) bool: the gaits the argmin (evaluation, deployment) may select; None: every gait."""
-        return _both(*self.rule_candidates(obs, commands, error))
 
     # --- learning ----------------------------------------------------------------------------------------------------
     def _store(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor, e: torch.Tensor) -> None:
