@@ -312,6 +312,22 @@ def test_the_wheels_profile_is_omni_with_p_only_wheels_and_no_energy_term():
         assert to_dict(env) == to_dict(same) and train == same_train
 
 
+def test_the_select_profile_is_wheels_with_the_feasible_rule_and_cut_labels():
+    from wqwarp.rl.profiles import PROFILES
+
+    for name in PRESETS:
+        env, train = resolve_config(_parse("--preset", name, "--profile", "select"))
+        wheels, wheels_train = resolve_config(_parse("--preset", name, "--profile", "wheels"))
+        if wheels.gait.selection != "predictive":  # a method without the predictor trains as under wheels
+            assert to_dict(env) == to_dict(wheels) and train == wheels_train, name
+            continue
+        same, same_train = resolve_config(_parse("--preset", name, "--profile", "wheels", "--env.predictor.criterion",
+                                                 "kinematic_feasible", "--env.predictor.label-command-cut"))  # the A/B's
+        assert to_dict(env) == to_dict(same) and train == same_train, name
+        assert env.predictor.criterion == "kinematic_feasible" and env.predictor.label_command_cut, name
+    assert "select" in PROFILES
+
+
 def test_an_unknown_profile_exits_2_with_one_line(capsys):
     with pytest.raises(SystemExit) as e:
         _parse("--profile", "fast")
