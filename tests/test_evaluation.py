@@ -116,6 +116,31 @@ def test_run_task_pushes_on_schedule_and_holds_its_commands(tmp_path, save_check
     assert all(torch.equal(c, expected) for c in commands)
 
 
+def test_run_task_names_the_commands_of_the_robots_that_fell(tmp_path, save_checkpoint):
+    """``fallen_commands`` holds the task-axis command of exactly the robots whose episode restarted (the rollout's
+    episodes outlast it, so a restart is a fall), and the push table prints them."""
+
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.tracking import _print_table3, run_task, spread_commands
+
+    cfg = make_preset("no_predictor")
+    cfg.sim.num_envs = 1
+    torch.manual_seed(0)
+    save_checkpoint(tmp_path / "model_0.pt", cfg)
+    pr = make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=6)
+    env, lengths, PUSH = pr.env, [], 1.0  # m/s every 0.3 s: an untrained policy keeps 2 of 6 robots up
+    r = run_task(pr, "vy", seconds=2.0, settle=0.1, max_push=PUSH, push_interval=0.3,
+                 progress=lambda k, n: lengths.append(env.episode_length_buf.clone()))  # fmt: skip
+    restarted = torch.stack([lengths[k] < lengths[k - 1] for k in range(1, len(lengths))]).any(0)
+    assert 0 < int(restarted.sum()) < 6, "the pushes should topple some robots and not others"
+    expected = spread_commands("vy", 6)[restarted.cpu(), 1]
+    assert r.fallen_commands == sorted(round(float(v), 4) for v in expected)
+    assert len(r.fallen_commands) == round((1 - r.upright) * 6)
+    log = io.StringIO()
+    _print_table3(log, [dataclasses.asdict(r)], ["vy"], [PUSH])
+    assert f"vy at {PUSH:g} m/s: fell at commands " + ", ".join(f"{v:g}" for v in r.fallen_commands) in log.getvalue()
+
+
 def test_a_loaded_checkpoint_starts_the_same_whatever_torch_drew_before(tmp_path, save_checkpoint):
     """The env observes and selects gaits with the networks it is built with; after a checkpoint is loaded the first
     observation and the gait each robot is reset into must come from the loaded ones, not from torch's global RNG."""

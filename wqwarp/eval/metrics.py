@@ -81,6 +81,9 @@ class EvalResult:
     predicted_power_running: float | None = None
     """Predictive selection: mean predicted power of the gait running at each measured step [W] (compare with
     ``mean_p_cost`` over the same robots and steps)."""
+    fallen_commands: list | None = None
+    """The task-axis command of each robot whose trunk touched the ground, ascending (where the falls come from,
+    e.g. the push protocol's commands past the training range)."""
 
 
 def check_task(task: str) -> None:

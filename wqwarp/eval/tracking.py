@@ -104,6 +104,7 @@ def _run_task(runner, task, seconds, settle, max_push, push_interval, progress, 
         gait_switches_per_robot_minute=gait.get("Gait/switches_per_robot_minute", 0.0),
         falls_within_1s_of_switch=int(gait.get("Gait/falls_within_1s_of_switch", 0)),
         predicted_power=predicted, predicted_power_running=predicted_running,
+        fallen_commands=sorted(round(float(v), 4) for v in cmd[fell, axis].cpu()),
     )  # fmt: skip
 
 
@@ -312,4 +313,11 @@ def _print_table3(log: TextIO, results: list[dict], tasks: list[str], levels: li
     for lvl in levels:
         row = [r for r in results if r["max_push"] == lvl]
         print(f"{lvl:>7g} m/s " + " ".join(f"{100 * r['upright']:8.1f}" for r in row), file=log)
+    for r in results:
+        if r.get("fallen_commands"):
+            lo, hi = r["command_range"]
+            fallen = ", ".join(f"{v:g}" for v in r["fallen_commands"])
+            print(f"{r['task']} at {r['max_push']:g} m/s: fell at commands {fallen} (task range [{lo:g}, {hi:g}])",
+                  file=log)  # fmt: skip
+
 
