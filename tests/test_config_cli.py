@@ -321,7 +321,8 @@ def test_the_select_profile_is_wheels_with_the_feasible_rule_and_cut_labels():
         if wheels.gait.selection != "predictive":  # a method without the predictor trains as under wheels
             assert to_dict(env) == to_dict(wheels) and train == wheels_train, name
             continue
-        ab = ("--profile", "wheels", "--env.predictor.criterion", "kinematic_feasible", "--env.predictor.label-command-cut")
+        ab = ("--profile", "wheels", "--env.predictor.criterion", "kinematic_feasible",
+              "--env.predictor.label-command-cut")
         same, same_train = resolve_config(_parse("--preset", name, *ab))  # the A/B's command
         assert to_dict(env) == to_dict(same) and train == same_train, name
         assert env.predictor.criterion == "kinematic_feasible" and env.predictor.label_command_cut, name
