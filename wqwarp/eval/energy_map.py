@@ -120,7 +120,7 @@ def summarise_cells(cells: list, gaits: list[str], m: dict, allowed: torch.Tenso
                                                                                   "wrong_gait")}  # fmt: skip
         predicted = {gaits[k]: float(cell["pred"].mean(0)[k]) for k in range(g)}  # from all the cell's robots' obs
         up = [k for k in range(g) if not bool(cell["fell"][k])]
-        ok = [k for k in up if tracks_command(float(cell["err"][k]), False)]
+        ok = [k for k in range(g) if tracks_command(float(cell["err"][k]), bool(cell["fell"][k]))]
         out.append({
             "plane": plane, "command": list(command), "measured_p_cost": per["p"],
             "measured_p_cost_legs": per["legs"], "measured_p_cost_wheels": per["wheels"],

@@ -319,5 +319,3 @@ def _print_table3(log: TextIO, results: list[dict], tasks: list[str], levels: li
             fallen = ", ".join(f"{v:g}" for v in r["fallen_commands"])
             print(f"{r['task']} at {r['max_push']:g} m/s: fell at commands {fallen} (task range [{lo:g}, {hi:g}])",
                   file=log)  # fmt: skip
-
-

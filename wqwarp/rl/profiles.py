@@ -95,6 +95,9 @@ P_ONLY_WHEELS = Lever("env.sim.wheel_ki", 0.0, _every,
                       "to -65 % power on v_x, two seeds")  # fmt: skip
 """The wheel law of the authors' harness, the lever of ``wheels`` and one of ``energy``."""
 
+WHEELS_LEVERS: tuple[Lever, ...] = (*OMNI_LEVERS, P_ONLY_WHEELS)
+"""The levers of ``wheels``, on which ``select`` builds."""
+
 ENERGY_LEVERS: tuple[Lever, ...] = (
     Lever("env.reward.p_cost", -0.01, _every,
           "-0.01 per W of sum |tau qd|: 22-48 % less power per task than omni alone (two seeds, 15 M); Table II's "
@@ -123,11 +126,11 @@ PROFILES: dict[str, Profile] = {p.name: p for p in (
     Profile("omni", "the levers that met the omnidirectional target at 15 M samples (lateral feed-forward, kinematic "
             "gait criterion with mean-action labels, foot std 0.25)", OMNI_LEVERS),
     Profile("wheels", "omni plus P-only wheels (no p_cost term): the energy profile's wheel law alone, which tracks "
-            "v_y 1.5-2x better than energy and still spends 27-34 % less than the fixed trot trained alike", (
-                *OMNI_LEVERS, P_ONLY_WHEELS)),
+            "v_y 1.5-2x better than energy and still spends 27-34 % less than the fixed trot trained alike",
+            WHEELS_LEVERS),
     Profile("select", "wheels with selection among the gaits predicted to track (kinematic_feasible) and predictor "
             "windows cut at command changes: legged v_y at 1.1-1.8x the fixed trot's MSE, driving for v_x",
-            (*OMNI_LEVERS, P_ONLY_WHEELS, *SELECT_LEVERS)),
+            WHEELS_LEVERS + SELECT_LEVERS),
     Profile("energy", "omni plus p_cost at -0.01 per W ramped in over iterations 2000-3000 and P-only wheels (the "
             "energy levers of issue 22)", OMNI_LEVERS + ENERGY_LEVERS),
     Profile("paper", "the paper's method as written: no lever beyond the preset"),
