@@ -19,7 +19,9 @@ its preset (``train/ppo_newton.py --profile``, ``train/reproduce.py --profile``)
            commands, as evaluation holds them). On two seeds ``ours`` tracks v_y at 1.1 / 1.8x the fixed trot's
            MSE (``wheels``: 5-7x), in legged gaits 86 % of the task, drives standing and v_x 96-99 % (v_x 0.37 /
            0.29x the trot's power), and spends 25 / 10 % less than that trot over the three moving tasks
-           (``wheels``: 34 / 27 %). docs/studies/feasible_selection/README.md.
+           (``wheels``: 34 / 27 %). docs/studies/feasible_selection/README.md. The cpu reproduction runs under it
+           (docs/RESULTS.md: v_x 0.44x the trot's power at 0.27x its MSE, v_y MSE 0.0078 against its 0.0096, 12 %
+           less over the three moving tasks; seed 1).
     paper  none: the paper's method as written (the presets alone).
 
 A profile is a list of :class:`Lever` (a dotted config path, its value, and which methods it applies to: a lever
