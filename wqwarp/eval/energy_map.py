@@ -119,12 +119,13 @@ def summarise_cells(cells: list, gaits: list[str], m: dict, allowed: torch.Tenso
         per = {key: {gaits[k]: float(cell[key][k]) for k in range(g)} for key in ("p", "legs", "wheels", "err",
                                                                                   "wrong_gait")}  # fmt: skip
         predicted = {gaits[k]: float(cell["pred"].mean(0)[k]) for k in range(g)}  # from all the cell's robots' obs
-        up = [k for k in range(g) if not bool(cell["fell"][k])]
-        ok = [k for k in range(g) if tracks_command(float(cell["err"][k]), bool(cell["fell"][k]))]
+        fell = [bool(cell["fell"][k]) for k in range(g)]
+        up = [k for k in range(g) if not fell[k]]
+        ok = [k for k in range(g) if tracks_command(float(cell["err"][k]), fell[k])]
         out.append({
             "plane": plane, "command": list(command), "measured_p_cost": per["p"],
             "measured_p_cost_legs": per["legs"], "measured_p_cost_wheels": per["wheels"],
-            "sq_velocity_error": per["err"], "fell": {gaits[k]: bool(cell["fell"][k]) for k in range(g)},
+            "sq_velocity_error": per["err"], "fell": dict(zip(gaits, fell, strict=True)),
             "share_not_in_forced_gait": per["wrong_gait"], "predicted_p_cost": predicted,
             "measured_winner": _cheapest(gaits, cell["p"], up),
             "measured_winner_tracking": _cheapest(gaits, cell["p"], ok),

@@ -246,9 +246,12 @@ def _ordering_checks(summary: dict) -> list[str]:
         s = pres.get(p, {}).get("tracking", {}).get(task, {}).get(m)
         return s["mean"] if s else None
 
+    def mse_var(p, task):
+        return metric(p, task, "mse"), pres[p]["tracking"].get(task, {}).get("command_variance")
+
     def tracks(p, task):
-        """MSE below half the command variance: the threshold of the 'barely tracked' lines below."""
-        mse, var = metric(p, task, "mse"), pres[p]["tracking"].get(task, {}).get("command_variance")
+        """MSE below half the command variance (that of a robot ignoring the command): the 'barely tracked' line."""
+        mse, var = mse_var(p, task)
         return mse is not None and not (var and mse >= 0.5 * var)
 
     have = [p for p in pres if pres[p]["tracking"]]
@@ -274,15 +277,14 @@ def _ordering_checks(summary: dict) -> list[str]:
                      f"({powers[lo]:.1f} W) -> {'agrees' if lo == 'ours' else 'differs'}")  # fmt: skip
         tracking = {p: w for p, w in powers.items() if all(tracks(p, t) for t in ("vx", "vy", "wz"))}
         if lo not in tracking and len(tracking) > 1:  # the paper compares at comparable tracking
-            lo = min(tracking, key=tracking.get)
-            others = ", ".join(f"{PAPER_NAMES[p]} {w:.1f} W" for p, w in sorted(tracking.items(), key=lambda x: x[1])
-                               if p != lo)  # fmt: skip
+            best, *rest = sorted(tracking, key=tracking.get)
+            others = ", ".join(f"{PAPER_NAMES[p]} {tracking[p]:.1f} W" for p in rest)
             lines.append(f"- ... among the methods that track all three tasks (MSE below half that of a robot that "
-                         f"ignores the command): here {PAPER_NAMES[lo]} ({tracking[lo]:.1f} W; {others}) -> "
-                         f"{'agrees' if lo == 'ours' else 'differs'}")  # fmt: skip
+                         f"ignores the command): here {PAPER_NAMES[best]} ({tracking[best]:.1f} W; {others}) -> "
+                         f"{'agrees' if best == 'ours' else 'differs'}")  # fmt: skip
     for p in have:
         for task in ("vx", "vy", "wz"):
-            mse, var = metric(p, task, "mse"), pres[p]["tracking"].get(task, {}).get("command_variance")
+            mse, var = mse_var(p, task)
             if mse is not None and not tracks(p, task):
                 how = "not tracked" if mse >= 0.9 * var else "barely tracked"
                 lines.append(f"- {PAPER_NAMES[p]}: {PLAIN_NAMES[task]} MSE {mse:.3f}, {100 * mse / var:.0f} % of the "
