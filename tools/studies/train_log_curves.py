@@ -1,5 +1,5 @@
 """Learning curves of training runs from their console logs (the ``train/ppo_newton.py`` progress lines that
-``train/reproduce.py`` commits as ``docs/results/<budget>/<preset>_s<seed>_train.log``), for A/B comparisons at
+``train/reproduce.py`` commits as ``docs/results/<budget>/<preset>_s<seed>_train.log.gz``), for A/B comparisons at
 equal samples when a run folder (its ``metrics.jsonl`` and event files, read by ``tools/time_to_skill.py``) did not
 outlive its session.
 
