@@ -81,6 +81,16 @@ def test_train_log_curves_average_the_progress_lines_of_a_console_log(tmp_path, 
     jl = tool.read_log(str(tmp_path / "metrics.jsonl"))
     assert sorted(jl) == [10, 20] and jl[20]["err_vy"] == pytest.approx(0.02) and jl[10]["power_wheels"] == 10.0
     assert tool.windowed(jl, 20, 20)["reward"] == pytest.approx(150.0)
+    # records committed gzipped (docs/): read as X.gz, or by their plain name when only X.gz exists
+    import gzip
+
+    for plain in (log, tmp_path / "metrics.jsonl"):
+        with gzip.open(f"{plain}.gz", "wt", encoding="utf-8") as f:
+            f.write(plain.read_text())
+        expected = tool.read_log(str(plain))
+        assert tool.read_log(f"{plain}.gz") == expected
+        plain.unlink()
+        assert tool.read_log(str(plain)) == expected
     (tmp_path / "empty.log").write_text("nothing\n")
     assert tool.main([str(tmp_path / "empty.log")]) == 2 and "no progress lines" in capsys.readouterr().err
 

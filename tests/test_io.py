@@ -31,3 +31,39 @@ def test_the_written_file_has_the_permissions_of_a_plain_write(tmp_path):
     plain.write_text("x")
     write_text_atomic(str(atomic), "x")
     assert os.stat(atomic).st_mode & 0o777 == os.stat(plain).st_mode & 0o777
+
+
+def test_open_text_reads_a_plain_file_a_gzipped_one_and_falls_back_from_the_plain_name_to_the_gz(tmp_path):
+    import gzip
+
+    from wqwarp.utils.io import open_text, text_path
+
+    plain, packed = tmp_path / "a_train.log", tmp_path / "b_metrics_every10.jsonl.gz"
+    plain.write_text("plain \u00e9\n", encoding="utf-8")
+    with gzip.open(packed, "wt", encoding="utf-8") as f:
+        f.write('{"iteration": 1}\n')
+    with open_text(str(plain)) as f:
+        assert f.read() == "plain \u00e9\n"
+    with open_text(str(packed)) as f:
+        assert f.read() == '{"iteration": 1}\n'
+    stem = str(packed)[: -len(".gz")]  # the plain name of a record committed gzipped
+    assert text_path(stem) == str(packed)
+    with open_text(stem) as f:
+        assert f.read() == '{"iteration": 1}\n'
+    plain_too = tmp_path / "b_metrics_every10.jsonl"  # when both exist, the plain file is read
+    plain_too.write_text("newer\n")
+    with open_text(stem) as f:
+        assert f.read() == "newer\n"
+    with pytest.raises(FileNotFoundError, match="missing.log"):
+        open_text(str(tmp_path / "missing.log"))
+
+
+def test_a_gzipped_write_is_deterministic_and_reads_back(tmp_path):
+    from wqwarp.utils.io import open_text, write_text_gz_atomic
+
+    a, b = tmp_path / "a.log.gz", tmp_path / "b.log.gz"
+    write_text_gz_atomic(str(a), "line 1\nline 2\n")
+    write_text_gz_atomic(str(b), "line 1\nline 2\n")
+    assert a.read_bytes() == b.read_bytes() and a.read_bytes()[:2] == b"\x1f\x8b"
+    with open_text(str(a)) as f:
+        assert f.read() == "line 1\nline 2\n"

@@ -202,3 +202,25 @@ def test_report_compares_power_among_the_methods_that_track_every_task():
     lines = _ordering_checks({"presets": presets})
     assert "- lowest mean power over the three tasks: paper Ours; here Baseline (15.0 W) -> differs" in lines
     assert not any(x.startswith("- ... among") for x in lines)
+
+
+def test_import_restores_the_training_log_the_report_committed_gzipped(tmp_path, monkeypatch):
+    """The report writes ``<preset>_s<seed>_train.log.gz`` (docs/results is committed); ``--import-from`` puts it
+    back as the run's plain ``<run>.log``; the older plain ``_train.log`` is taken likewise."""
+    from wqwarp.utils.io import write_text_gz_atomic
+
+    monkeypatch.setattr(reproduce, "import_mismatch", lambda *a: None)  # the records' budget is not under test here
+    src, work = tmp_path / "res", tmp_path / "work"
+    src.mkdir()
+    for stem, log in (("ours_s1", "ours_s1_train.log.gz"), ("pmtg_s1", "pmtg_s1_train.log")):
+        (src / f"{stem}_train_config.json").write_text("{}")
+        if log.endswith(".gz"):
+            write_text_gz_atomic(str(src / log), f"{stem} progress\n")
+        else:
+            (src / log).write_text(f"{stem} progress\n")
+    budget = reproduce.BUDGETS["smoke"]
+    lines = reproduce.import_finished(str(src), str(work), budget, "omni", ["ours", "pmtg"], [1])
+    assert lines == ["imported ours_s1 from " + str(src) + ": 2 file(s)", "imported pmtg_s1 from " + str(src)
+                     + ": 2 file(s)"]  # fmt: skip
+    for stem in ("ours_s1", "pmtg_s1"):
+        assert (work / "train" / f"{stem}.log").read_text() == f"{stem} progress\n"

@@ -105,10 +105,12 @@ def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50, upto:
 
 def archive(run: str, dest: str, every: int = 10) -> None:
     """The committed record of a run: its configuration, its evaluation results (``eval*.json``, ``lateral*.json``,
-    ``energymap*.json``) and every ``every``-th row of ``metrics.jsonl`` (and the last)."""
+    ``energymap*.json``) and every ``every``-th row of ``metrics.jsonl`` (and the last), gzipped
+    (``metrics_every<every>.jsonl.gz``)."""
     import shutil
 
     from wqwarp.rl.progress import read_metrics
+    from wqwarp.utils.io import write_text_gz_atomic
 
     os.makedirs(dest, exist_ok=True)
     for name in sorted(os.listdir(run)):
@@ -116,8 +118,8 @@ def archive(run: str, dest: str, every: int = 10) -> None:
             shutil.copyfile(os.path.join(run, name), os.path.join(dest, name))
     rows = read_metrics(run)
     keep = [r for i, r in enumerate(rows) if (i + 1) % every == 0 or i + 1 == len(rows)]
-    with open(os.path.join(dest, f"metrics_every{every}.jsonl"), "w", encoding="utf-8") as f:
-        f.writelines(json.dumps(r) + "\n" for r in keep)
+    text = "".join(json.dumps(r) + "\n" for r in keep)
+    write_text_gz_atomic(os.path.join(dest, f"metrics_every{every}.jsonl.gz"), text)
 
 
 def main(argv=None) -> int:
@@ -130,7 +132,8 @@ def main(argv=None) -> int:
                     "samples; default all)")
     ap.add_argument("--json", default=None, help="also write the table to this JSON file")
     ap.add_argument("--archive", default=None, help="copy each run's config.json, evaluation JSONs and every 10th "
-                    "row of metrics.jsonl into ARCHIVE/<run name>/ (what is committed; checkpoints never are)")
+                    "row of metrics.jsonl (gzipped) into ARCHIVE/<run name>/ (what is committed; checkpoints never "
+                    "are)")  # fmt: skip
     args = ap.parse_args(argv)
     ap.check_outputs(args.json)
     try:

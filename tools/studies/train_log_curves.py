@@ -1,5 +1,5 @@
 """Learning curves of training runs from their console logs (the ``train/ppo_newton.py`` progress lines that
-``train/reproduce.py`` commits as ``docs/results/<budget>/<preset>_s<seed>_train.log``), for A/B comparisons at
+``train/reproduce.py`` commits as ``docs/results/<budget>/<preset>_s<seed>_train.log.gz``), for A/B comparisons at
 equal samples when a run folder (its ``metrics.jsonl`` and event files, read by ``tools/time_to_skill.py``) did not
 outlive its session.
 
@@ -8,7 +8,8 @@ Usage::
     python tools/studies/train_log_curves.py docs/results/cpu/ours_s1_train.log runs/ab/ours_pcost_s1.log \\
         --at 500,1000,2000,3000,4000,4883 --window 100 --skill vy=0.15,wz=0.3 --json curves.json
 
-A ``.jsonl`` argument is read as a run's ``metrics.jsonl`` (or the every-10th-row copies the studies commit).
+A ``.jsonl`` argument is read as a run's ``metrics.jsonl`` (or the every-10th-row copies the studies commit). A log
+committed gzipped is read as it is (``X.gz``, or ``X`` when only ``X.gz`` exists).
 Per log and ``--at`` iteration: the mean over the progress lines of the ``--window`` iterations up to it of the mean
 episode reward, the training tracking errors (|error| of v_x, v_y, w under the training command distribution, with
 exploration noise and domain randomisation) and the training power (p_cost over legs and wheels, likewise). Per
@@ -35,11 +36,14 @@ JSONL_KEYS = {"reward": "mean_reward", "err_vx": "Metrics/vx_error", "err_vy": "
 
 def read_log(path: str) -> dict[int, dict[str, float]]:
     """Iteration -> the progress line's numbers (the last line of an iteration wins; a resumed run continues); a
-    ``.jsonl`` file is read as a run's ``metrics.jsonl`` rows instead."""
+    ``.jsonl`` file is read as a run's ``metrics.jsonl`` rows instead; either may be gzipped (``.gz``,
+    :func:`wqwarp.utils.io.open_text`)."""
+    from wqwarp.utils.io import open_text
+
     rows: dict[int, dict[str, float]] = {}
-    with open(path, encoding="utf-8", errors="replace") as f:
+    with open_text(path, errors="replace") as f:
         text = f.read()
-    if path.endswith(".jsonl"):
+    if path.removesuffix(".gz").endswith(".jsonl"):
         import json
 
         for line in text.splitlines():

@@ -182,7 +182,7 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
     progress, nothing of them recorded."""
     from dataclasses import asdict
 
-    from wqwarp.utils.io import write_text_atomic
+    from wqwarp.utils.io import write_text_atomic, write_text_gz_atomic
     from wqwarp.utils.provenance import git_state, write_result_json
 
     git = git_state()  # before this report writes anything
@@ -218,8 +218,8 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
             if os.path.isfile(base + ".log"):
                 with open(base + ".log", encoding="utf-8", errors="replace") as f:
                     text = "\n".join(line.split("\r")[-1] for line in f.read().splitlines())
-                with open(os.path.join(res_dir, f"{p}_s{sd}_train.log"), "w", encoding="utf-8") as f:
-                    f.write(text + "\n")
+                # gzipped (1 MB of progress lines at 15 M samples, a tenth of it packed): the folder is committed
+                write_text_gz_atomic(os.path.join(res_dir, f"{p}_s{sd}_train.log.gz"), text + "\n")
     eval_s = 0.0
     for name in copied:
         if name.endswith(".json"):

@@ -50,7 +50,7 @@ from wqwarp.eval.report import config_profile, read_json, write_report
 from wqwarp.eval.timeline import fig6_segments
 from wqwarp.rl.presets import PRESET_ORDER, PRESETS
 from wqwarp.rl.profiles import DEFAULT_PROFILE, PROFILES, profile_help
-from wqwarp.utils.io import write_text_atomic
+from wqwarp.utils.io import open_text, write_text_atomic
 
 
 @dataclass(frozen=True)
@@ -267,14 +267,18 @@ def import_finished(src: str, work: str, budget: Budget, profile: str, presets: 
                     dst = os.path.join(d, "config.json")
                 elif name == f"{stem}_train_info.json":
                     dst = os.path.join(d, "train_info.json")
-                elif name == f"{stem}_train.log":
+                elif name in (f"{stem}_train.log", f"{stem}_train.log.gz"):  # the report writes it gzipped
                     dst = d + ".log"
                 elif name.endswith((".json", ".png")):
                     dst = os.path.join(work, "eval", name)
                 else:
                     continue
                 if not os.path.isfile(dst):
-                    shutil.copyfile(f, dst)
+                    if dst == d + ".log":
+                        with open_text(f, errors="replace") as src_log:
+                            write_text_atomic(dst, src_log.read())
+                    else:
+                        shutil.copyfile(f, dst)
                     taken.append(name)
             write_text_atomic(os.path.join(d, IMPORTED),
                               json.dumps({"from": os.path.abspath(src), "files": taken}, indent=2))  # fmt: skip

@@ -1,14 +1,18 @@
 """Output paths checked before any work (:func:`output_problem`, :func:`directory_problem`: a long run never ends in a
 failed write), and atomic writes: every file this project writes (checkpoints, exports, result JSON, figures, USD)
 goes to a temporary file in the same folder and is renamed over its target, so a crash never leaves a truncated or
-half-overwritten file and a failure never corrupts what exists."""
+half-overwritten file and a failure never corrupts what exists. Text records that may be stored gzipped (the
+per-run training logs and metrics rows committed under ``docs/``) are read through :func:`open_text` and written
+by :func:`write_text_gz_atomic`."""
 
 from __future__ import annotations
 
 import contextlib
+import gzip
 import os
 import tempfile
 from collections.abc import Callable, Iterator
+from typing import TextIO
 
 
 @contextlib.contextmanager
@@ -51,6 +55,31 @@ def write_text_atomic(path: str, text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` atomically."""
     with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8") as f:
         f.write(text)
+
+
+def text_path(path: str) -> str:
+    """``path``, or ``path + ".gz"`` when only that exists (a record committed gzipped, named by its plain name)."""
+    if not path.endswith(".gz") and not os.path.exists(path) and os.path.exists(path + ".gz"):
+        return path + ".gz"
+    return path
+
+
+def open_text(path: str, errors: str | None = None) -> TextIO:
+    """A UTF-8 text handle on ``path`` for reading, gzip-decompressed when the file is gzipped: when ``path`` ends in
+    ``.gz``, or when ``path`` does not exist and ``path + ".gz"`` does (:func:`text_path`). ``errors`` as for
+    :func:`open`. A missing file raises :class:`FileNotFoundError` naming ``path``."""
+    path = text_path(path)
+    if path.endswith(".gz"):
+        return gzip.open(path, "rt", encoding="utf-8", errors=errors)
+    return open(path, encoding="utf-8", errors=errors)
+
+
+def write_text_gz_atomic(path: str, text: str) -> None:
+    """Write ``text`` (UTF-8) gzipped to ``path`` atomically, byte for byte the same for the same text (level 9, no
+    name and no time in the header, as ``gzip -9n``)."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as raw:
+        with gzip.GzipFile(filename="", mode="wb", compresslevel=9, fileobj=raw, mtime=0) as gz:
+            gz.write(text.encode("utf-8"))
 
 
 def directory_problem(path: str) -> str | None:
