@@ -1,13 +1,94 @@
-"""Command-line conventions shared by every script in ``train/`` and ``tools/``."""
+"""Command-line conventions shared by every script in ``train/`` and ``tools/``: one exception for bad input
+(:class:`UsageError`, printed as one line with exit code 2 by :func:`entry_point`), tyro over config dataclasses
+(:func:`tyro_cli`), and the argparse conventions of the smaller tools."""
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import functools
+import io
 import math
 import os
 import re
+import sys
+from collections.abc import Callable, Sequence
 
 from wqwarp.utils.io import output_problem
+
+USAGE_EXIT = 2
+"""Exit code of a usage error (argparse's)."""
+
+
+class UsageError(ValueError):
+    """Bad input of a command (an option, a path, a checkpoint it cannot use): :func:`entry_point` prints it as one
+    line ``error: <message>`` and exits with :data:`USAGE_EXIT`, before any work and without touching any output."""
+
+
+def fail_usage(message: str) -> None:
+    """Print ``error: message`` on one line to stderr (what :func:`entry_point` does with a :class:`UsageError`)."""
+    print(f"error: {message}", file=sys.stderr, flush=True)
+
+
+def entry_point(main: Callable[..., int | None]) -> Callable[..., int]:
+    """Decorator of a command's ``main(argv=None) -> exit code``: a :class:`UsageError` raised anywhere in it
+    becomes one line on stderr and exit code 2; ``None`` returns 0."""
+
+    @functools.wraps(main)
+    def run(*args, **kwargs) -> int:
+        try:
+            code = main(*args, **kwargs)
+        except UsageError as e:
+            fail_usage(str(e))
+            return USAGE_EXIT
+        return 0 if code is None else int(code)
+
+    return run
+
+
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
+_RULE = set("─━-+╭╮╰╯ ")
+
+
+def tyro_error_line(text: str) -> str:
+    """tyro's boxed error message as one line: the message, and the first option tyro suggests for a misspelt one."""
+    rows = [_ANSI.sub("", line).strip().strip("│|").strip() for line in text.splitlines()]
+    segments: list[list[str]] = [[]]
+    for row in rows:
+        if row and set(row) <= _RULE:  # the box's top, bottom and inner rules
+            segments.append([])
+        elif row and "─" in row[:3]:  # the title line "╭─ Title ───╮": the message follows
+            segments.append([])
+        elif row:
+            segments[-1].append(row)
+    segments = [s for s in segments if s]
+    if not segments:
+        return "invalid command line (see --help)"
+    message = re.sub(r"^Error parsing __tyro[^:]*: ", "", " ".join(segments[0]))
+    suggest = next((s[1].split()[0] for s in segments[1:] if s[0].startswith("Perhaps you meant") and len(s) > 1), "")
+    return message + (f" (did you mean {suggest}?)" if suggest else "") + " (see --help)"
+
+
+def tyro_cli(cls: type, default: object, argv: Sequence[str], prog: str, description: str, config: tuple = ()):
+    """``tyro.cli(cls, default=default, args=argv)``: an instance of the dataclass ``cls`` whose fields are options
+    (``--env.sim.dt``), help from the fields' docstrings, choices from their ``Literal`` types. A bad option or value
+    (including one a config's own checks refuse) is a :class:`UsageError` of one line; ``--help`` exits 0."""
+    import tyro
+
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err):
+            out = tyro.cli(cls, default=default, args=list(argv), prog=prog, description=description,
+                           config=config)  # fmt: skip
+    except SystemExit as e:
+        if e.code not in (0, None):
+            raise UsageError(tyro_error_line(err.getvalue())) from None
+        raise
+    except ValueError as e:  # a config check that tyro let through
+        raise UsageError(str(e)) from None
+    sys.stderr.write(err.getvalue())  # warnings of a successful parse
+    return out
+
 
 NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
 """A negative number, also in scientific notation (argparse's own pattern takes ``-2e-5`` for an option)."""
@@ -22,7 +103,7 @@ class ArgumentParser(argparse.ArgumentParser):
         self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str):  # type: ignore[override]
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+        self.exit(USAGE_EXIT, f"{self.prog}: error: {message} (see --help)\n")
 
     def check_outputs(self, *paths: str | None) -> None:
         """Usage error unless every given result-file path can be written (:func:`output_problem`); None is skipped.
