@@ -18,6 +18,7 @@ from wqwarp.control.gaits import TABLE_I, Gait, load_tuned_gait, with_gait
 from wqwarp.rl.rewards import REWARD_TERMS, TERMS, RewardTerm  # noqa: F401  (REWARD_TERMS: re-exported)
 from wqwarp.sim.config import SimConfig
 from wqwarp.utils.checked_config import CheckedConfig, check_positive, check_ranges, require
+from wqwarp.utils.migration import fill_missing, migrate, since_default
 
 GaitSelection = Literal["none", "fixed", "predictive"]
 """How each robot's nominal gait is chosen (:attr:`GaitConfig.selection`)."""
@@ -57,32 +58,38 @@ def _ramp_scale(self, iteration: int, start: int | None = None) -> float:
 
 RewardConfig = dataclasses.make_dataclass(
     "RewardConfig",
-    [(t.name, float, field(default=t.weight, metadata={"doc": t.doc})) for t in TERMS]
+    [(t.name, float, field(default=t.weight, metadata=migrate(t.migration.value, t.migration.why, doc=t.doc)
+                           if t.migration else {"doc": t.doc})) for t in TERMS]
     + [("tracking_sigma", float, field(default=4.0, metadata={"doc": "The 4 in exp(-4 err^2) [1/(m/s)^2]."})),
-       ("only_positive", bool, field(default=False, metadata={"doc": (
+       ("only_positive", bool, field(default=False, metadata=migrate(
+           False, "the plain sum, the only reward before the setting existed", doc=(
            "Clip each step's summed reward at zero (legged_gym's only_positive_rewards, on by default there): the "
            "penalties cannot make a step worse than doing nothing rewarded. The paper does not say; off keeps the "
-           "plain sum.")})),
-       ("soft_joint_limit", float, field(default=0.9, metadata={"doc": (
+           "plain sum.")))),
+       ("soft_joint_limit", float, field(default=0.9, metadata=since_default(
+           "the default; read only by the joint-limit term, off before it existed", doc=(
            "Width of the soft joint range of the joint_limits term as a fraction of each leg joint's range, about "
-           "its centre (legged_gym's soft_dof_pos_limit).")})),
-       ("ramp_terms", tuple[str, ...], field(default=(), metadata={"doc": (
+           "its centre (legged_gym's soft_dof_pos_limit).")))),
+       ("ramp_terms", tuple[str, ...], field(default=(), metadata=migrate(
+           [], "no reward ramp before the setting existed", doc=(
            "Terms whose weights are annealed in during training (a curriculum beyond the paper, which does not "
            "say; e.g. p_cost, so that tracking is learned before the energy term counts): weight 0 before PPO "
            "iteration ramp_start, then linear to the full weight over ramp_iterations. Evaluation and a policy "
-           "outside training see the full weights. Empty: no ramp.")})),
-       ("ramp_start", int, field(default=0, metadata={"doc": (
-           "PPO iteration at which the ramp_terms start counting.")})),
-       ("ramp_iterations", int, field(default=0, metadata={"doc": (
-           "PPO iterations from ramp_start to the full weight of the ramp_terms (0: a step at ramp_start).")})),
-       ("ramp_gate_vy_error", float, field(default=0.0, metadata={"doc": (
+           "outside training see the full weights. Empty: no ramp.")))),
+       ("ramp_start", int, field(default=0, metadata=since_default("its default (unused without ramp terms)", doc=(
+           "PPO iteration at which the ramp_terms start counting.")))),
+       ("ramp_iterations", int, field(default=0, metadata=since_default("its default (unused without ramp terms)", doc=(
+           "PPO iterations from ramp_start to the full weight of the ramp_terms (0: a step at ramp_start).")))),
+       ("ramp_gate_vy_error", float, field(default=0.0, metadata=migrate(
+           0.0, "the ramp started at ramp_start before the gate existed", doc=(
            "Beyond the paper: with a value > 0 the ramp waits for the lateral skill. It starts at the first PPO "
            "iteration >= ramp_start at which the training's mean |v_y error| (Metrics/vy_error, every robot) over "
            "the last ramp_gate_window iterations is below this value [m/s] (0.15: the studies' skill threshold); "
            "the opening iteration is saved in the checkpoint. 0: the ramp starts at ramp_start. Under torchrun each "
-           "rank gates on its own robots.")})),
-       ("ramp_gate_window", int, field(default=100, metadata={"doc": (
-           "PPO iterations averaged by the ramp_gate_vy_error gate.")}))],
+           "rank gates on its own robots.")))),
+       ("ramp_gate_window", int, field(default=100, metadata=since_default(
+           "its default (unused without the gate)", doc=(
+           "PPO iterations averaged by the ramp_gate_vy_error gate."))))],
     namespace={"weights": _reward_weights, "ramp_scale": _ramp_scale, "__module__": __name__},
 )
 RewardConfig.__doc__ = """Weights of the paper's Table II (and of the terms beyond it, 0 by default), one field per
@@ -110,7 +117,10 @@ class CommandConfig(CheckedConfig):
     """Probability that a sample has only one non-zero axis (the paper evaluates single-axis commands)."""
     zero_prob: float = 0.1
     """Probability of a zero command (standing still)."""
-    single_axis_weights: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    single_axis_weights: tuple[float, float, float] = field(
+        default=(1.0, 1.0, 1.0),
+        metadata=migrate([1.0, 1.0, 1.0], "equal odds, the only sampler before the setting existed"),
+    )
     """Relative odds that a single-axis sample keeps v_x, v_y or w_z (default: equal). (1, 2, 1) makes pure lateral
     commands a quarter of all samples at ``single_axis_prob`` 0.5 instead of a sixth."""
 
@@ -122,6 +132,16 @@ class CommandConfig(CheckedConfig):
                 f"needs three non-negative odds with a positive sum, got {w}")  # fmt: skip
         for n in ("single_axis_prob", "zero_prob"):
             require(0.0 <= getattr(self, n) <= 1.0, f"CommandConfig.{n}", f"must be in [0, 1], got {getattr(self, n)}")
+
+
+TABLE_I_BEFORE_LIBRARY_SETTING: tuple[dict, ...] = (
+    {"name": "driving", "phase_offsets": [0.0, 0.0, 0.0, 0.0], "df_swing": 0.0, "frequency": 0.0, "stance_x": -0.05},
+    {"name": "trotting", "phase_offsets": [0.0, 0.5, 0.5, 0.0], "df_swing": 0.4, "frequency": 1.2, "stance_x": 0.0},
+    {"name": "walking", "phase_offsets": [0.0, 0.25, 0.5, 0.75], "df_swing": 0.225, "frequency": 0.8, "stance_x": 0.0},
+)
+"""The gait library of every configuration written before ``GaitConfig.library`` was a setting: the paper's Table I
+as ``wqwarp.control.gaits.TABLE_I`` held it then, written out. It must never follow ``TABLE_I`` (an edit of the
+default library does not change what those checkpoints were trained with)."""
 
 
 @dataclass
@@ -139,14 +159,19 @@ class GaitConfig(CheckedConfig):
     """h_s [m] (authors' generator: max_clearance 0.1 m)."""
     swing_x_amplitude: float = 0.05
     """Horizontal swing amplitude of the foot point [m] (authors' generator: max_horizontal_offset 0.05 m)."""
-    lateral_gain: float = 0.0
+    lateral_gain: float = field(
+        default=0.0, metadata=migrate(0.0, "no lateral feed-forward before the setting existed")
+    )
     """Lateral feed-forward, NOT in the paper (0 = off, the paper's nominal gait): every stepping leg's nominal foot
     y gets a sawtooth locked to its phase, -A -> +A over swing and back over stance, with A = clip(lateral_gain x
     v_y command, +-lateral_limit) [s]; the stance legs push the body toward +A. The driving gait (no swing) gets
     none. ``wqwarp.kernels.gait.lateral_stroke``."""
-    lateral_limit: float = 0.12
+    lateral_limit: float = field(default=0.12, metadata=since_default("its default (unused at gain 0)"))
     """|A| bound of the lateral feed-forward [m] (the nominal trot rolls over near 0.15 m open loop)."""
-    library: tuple[Gait, ...] = TABLE_I
+    library: tuple[Gait, ...] = field(
+        default=TABLE_I,
+        metadata=migrate(TABLE_I_BEFORE_LIBRARY_SETTING, "Table I, the only library before it was a setting"),
+    )
     """The nominal gait library, index = gait id (default: the paper's Table I, ``wqwarp.control.gaits``). It sets
     the privileged one-hot size and the predictor's outputs, and is stored in checkpoints."""
 
@@ -180,7 +205,9 @@ class PredictorConfig(CheckedConfig):
     decision_interval_s: float = 1.0
     """Time a robot runs its selected gait before the next selection [s], counted from when the gait took effect
     (a switch waits for the library's continuity rule). Equal to the horizon, so each selection yields one window."""
-    power_normalization: PowerNormalization = "mean"
+    power_normalization: PowerNormalization = field(
+        default="mean", metadata=migrate("watts", "the literal formula, the only one before the setting existed")
+    )
     """What tau divides: ``mean`` (default) p_est / mean over gaits of p_est, per robot, so tau is a fraction of
     the robot's mean predicted power; ``watts`` p_est itself, the paper's formula taken literally. The argmin, and
     so evaluation and export, is the same for both. Measured (docs/method.md): with ``watts`` and tau from
@@ -208,7 +235,10 @@ class PredictorConfig(CheckedConfig):
     """Replay buffer of the most recent labelled windows."""
     holdout_fraction: float = 0.1
     """Share of windows kept out of training to measure the relative error per gait."""
-    criterion: SelectionCriterion = "power"
+    criterion: SelectionCriterion = field(
+        default="power",
+        metadata=migrate("power", "the paper's power-only rule, the only one before the setting existed"),
+    )
     """What the selection ranks: ``power`` (default, the paper's rule) softmax(-p_est / tau) over every gait;
     ``feasible`` (beyond the paper) the same softmax over the gaits predicted to track the command: a second MLP
     (the tracking head) predicts each gait's mean squared tracking error over the horizon, e = (v_x^cmd - v_x)^2 +
@@ -223,18 +253,26 @@ class PredictorConfig(CheckedConfig):
     cannot yet step sideways, track every command worse than driving early in training, so the head rules them out
     before they learn; with ``kinematic`` the power rule sends 80-86 % of the lateral commands to walking, the
     cheaper and slower sideways gait (docs/studies/residual_energy)."""
-    feasible_margin: float = 0.02
+    feasible_margin: float = field(
+        default=0.02, metadata=since_default("its default (unused with the power criterion)")
+    )
     """Candidates of the ``feasible`` criterion: e_est <= min over gaits of e_est + this [(m/s)^2, (rad/s)^2 for w].
     0.02 is an RMS shortfall of 0.14 m/s: a lateral command of 0.15 m/s or more rules out a gait that stands."""
-    kinematic_lateral_limit: float = 0.1
+    kinematic_lateral_limit: float = field(
+        default=0.1, metadata=since_default("its default (unused with the power criterion)")
+    )
     """|v_y^cmd| [m/s] above which the ``kinematic`` criterion excludes the gaits without swing, in training and in
     evaluation alike (a property of the gait, not a learned estimate)."""
-    kinematic_yaw_limit: float = 10.0
+    kinematic_yaw_limit: float = field(
+        default=10.0, metadata=migrate(10.0, "driving a candidate for every yaw command before the setting existed")
+    )
     """|w^cmd| [rad/s] above which the ``kinematic`` criterion also excludes the gaits without swing (default 10:
     above every command, so driving stays a candidate for any turn). Not a kinematic impossibility: unsteerable
     wheels turn by skidding, and measured (docs/studies/omnidirectional), the policy learns to turn in the driving
     gait only with a posture (front feet crossed under the trunk) that also stops its lateral stepping."""
-    feasible_penalty: float = 2.0
+    feasible_penalty: float = field(
+        default=2.0, metadata=since_default("its default (unused with the power criterion)")
+    )
     """How the ``feasible`` criterion treats a gait that is not a candidate while training: its normalised p_est is
     raised by this (in units of the robot's mean p_est over the gaits) before the softmax, so its odds fall by
     e^(penalty / tau): by 2.7x at tau 2, e^40 at 0.05. The mask tightens as tau anneals and early exploration stays
@@ -244,7 +282,10 @@ class PredictorConfig(CheckedConfig):
     made the selection an argmin of the predicted error (1.0-1.1 candidates per selection) and sent 90-100 % of the
     lateral commands to driving by iteration 600. The argmin (evaluation) never picks a non-candidate."""
 
-    label_source: LabelSource = "policy"
+    label_source: LabelSource = field(
+        default="policy",
+        metadata=migrate("policy", "every robot's sampled actions, the only labels before the setting existed"),
+    )
     """Which robots' windows label the predictor: ``policy`` (default, the paper's) every robot's, acting with the
     training policy's sampled actions; ``mean`` (beyond the paper) only the ``label_fraction`` of robots that act
     with the policy's mean action (what evaluation and deployment run), whose transitions PPO then leaves out of
@@ -252,10 +293,12 @@ class PredictorConfig(CheckedConfig):
     (docs/studies/omnidirectional): with ``policy`` the predictor overestimates the legged gaits 2-3x against
     evaluation (the exploration noise costs power in the leg joints) and predicts driving in every turning cell
     where walking is cheaper."""
-    label_fraction: float = 0.125
+    label_fraction: float = field(default=0.125, metadata=since_default("its default (unused with policy labels)"))
     """Share of robots that act with the mean action and label the predictor with ``label_source = mean`` (every
     round(1 / fraction)-th robot; at most 0.5: the others' samples train the policy)."""
-    label_command_cut: bool = False
+    label_command_cut: bool = field(
+        default=False, metadata=migrate(False, "windows were cut only by resets and gait switches before the setting")
+    )
     """Beyond the paper: also drop a window in which the robot's command changes (a resample every
     ``commands.resampling_time``), as one cut by a reset or a gait switch is. The forecast at o_t is for o_t's
     command, and evaluation holds its commands; a window that straddles a resample labels o_t with part of another
@@ -293,7 +336,9 @@ class ActionConfig(CheckedConfig):
     """Legs: p_des = p_n + dp -> IK -> PD (False: baseline joint-offset actions around the default pose)."""
     use_nominal_wheels: bool = True
     """Wheels: v_des = v_n + dv (False: v_des = dv, as PMTG and 'w/o nominal wheel velocity')."""
-    phase_residual_mode: PhaseResidualMode = "offset"
+    phase_residual_mode: PhaseResidualMode = field(
+        default="offset", metadata=migrate("increment", "the only reading before the setting existed")
+    )
     """How dphi enters the phase: ``offset`` (an offset from the gait clock, phi = (phi0 + f t + dphi) mod 1, as the
     authors' generator PMTG.py does; the default) or ``increment`` (added to the clock every policy step, a phase
     rate). Measured (docs/method.md): with ``increment`` the policy learns dphi = -f dt, which stops the
@@ -383,7 +428,9 @@ class DomainRandConfig(CheckedConfig):
     push_max_vel: float = 0.5
     """Largest velocity impulse along x and along y [m/s] (paper evaluates 0.5 and 0.7)."""
     enabled: bool = True
-    nominal_friction: float = 1.0
+    nominal_friction: float = field(
+        default=1.0, metadata=migrate(1.0, "the friction without randomisation before the setting existed")
+    )
     """Sliding friction of every contact when ``enabled`` is off (evaluation) [-]; the authors' MuJoCo model uses
     0.6 (``constants.AUTHORS_GROUND_FRICTION``)."""
 
@@ -520,27 +567,38 @@ def to_dict(cfg) -> dict:
     return dataclasses.asdict(cfg)
 
 
-def from_dict(cls, data, where: str = ""):
+_MISSING_HINT = (
+    " A setting added after configurations were written declares how they behave without it on its own field: "
+    "metadata=migrate(value, why) or since_default(why) (wqwarp.utils.migration)."
+)
+
+
+def from_dict(cls, data, where: str = "", migrated: list[str] | None = None):
     """The config dataclass ``cls`` from the dict :func:`to_dict` wrote (nested configs recursively, lists back to
     tuples). A key that ``cls`` does not have, or a field the dict lacks, is a ValueError naming it and its path:
-    a configuration is read whole or not at all, never completed with today's defaults."""
+    a configuration is read whole or not at all, never completed with today's defaults. With a ``migrated`` list, a
+    missing field that declares how the code behaved before it (``wqwarp.utils.migration``, its field metadata) is
+    filled with that, and each fill appended to ``migrated`` as ``"path = value (why)"``."""
     import typing
 
     where = where or cls.__name__
     if not isinstance(data, dict):
         raise ValueError(f"config {where}: expected a mapping, got {type(data).__name__}")
+    if migrated is not None:
+        data = fill_missing(cls, data, where.partition(".")[2], migrated)
     names = [f.name for f in dataclasses.fields(cls)]
     unknown = sorted(set(data) - set(names))
     missing = [n for n in names if n not in data]
     if unknown or missing:
         parts = ([f"unknown keys {unknown}"] if unknown else []) + ([f"missing keys {missing}"] if missing else [])
-        raise ValueError(f"config {where}: {'; '.join(parts)} (written by another version of wqwarp?)")
+        hint = _MISSING_HINT if missing else ""
+        raise ValueError(f"config {where}: {'; '.join(parts)} (written by another version of wqwarp?){hint}")
     hints = typing.get_type_hints(cls)
     kw = {}
     for n in names:
         t, v = hints[n], data[n]
         if dataclasses.is_dataclass(t):
-            kw[n] = from_dict(t, v, f"{where}.{n}")
+            kw[n] = from_dict(t, v, f"{where}.{n}", migrated)
         elif typing.get_origin(t) is tuple and isinstance(v, list | tuple):
             kw[n] = tuple(v)
         else:
@@ -548,49 +606,14 @@ def from_dict(cls, data, where: str = ""):
     return cls(**kw)
 
 
-MIGRATIONS: tuple[tuple[str, object, str], ...] = (
-    ("action.phase_residual_mode", "increment", "the only reading before the setting existed"),
-    ("predictor.power_normalization", "watts", "the literal formula, the only one before the setting existed"),
-    ("sim.joint_model", "asset", "the USD's joint model, the only one before the setting existed"),
-    ("domain_rand.nominal_friction", 1.0, "the friction without randomisation before the setting existed"),
-    ("sim.unstable_position_limit", 1.0e3, "the divergence guard's default; before it, a diverged robot went unseen"),
-    ("sim.unstable_velocity_limit", 1.0e3, "the divergence guard's default; before it, a diverged robot went unseen"),
-    ("gait.library", [dataclasses.asdict(g) for g in TABLE_I], "Table I, the only library before it was a setting"),
-    ("reward.only_positive", False, "the plain sum, the only reward before the setting existed"),
-    ("commands.single_axis_weights", [1.0, 1.0, 1.0], "equal odds, the only sampler before the setting existed"),
-    ("gait.lateral_gain", 0.0, "no lateral feed-forward before the setting existed"),
-    ("gait.lateral_limit", 0.12, "its default (unused at gain 0)"),
-    ("predictor.criterion", "power", "the paper's power-only rule, the only one before the setting existed"),
-    ("predictor.feasible_margin", 0.02, "its default (unused with the power criterion)"),
-    ("predictor.feasible_penalty", 2.0, "its default (unused with the power criterion)"),
-    ("predictor.kinematic_lateral_limit", 0.1, "its default (unused with the power criterion)"),
-    ("predictor.label_source", "policy", "every robot's sampled actions, the only labels before the setting existed"),
-    ("predictor.label_fraction", 0.125, "its default (unused with policy labels)"),
-    ("predictor.label_command_cut", False, "windows were cut only by resets and gait switches before the setting"),
-    ("predictor.kinematic_yaw_limit", 10.0, "driving a candidate for every yaw command before the setting existed"),
-    ("reward.p_cost", 0.0, "no power-cost term before the setting existed"),
-    ("reward.joint_limits", 0.0, "no joint-limit term before the setting existed"),
-    ("reward.soft_joint_limit", 0.9, "the default; read only by the joint-limit term, off before it existed"),
-    ("sim.contact_ke", 2.0e4, "its default; read only by the featherstone backend, which no training used before"),
-    ("sim.contact_kd", 300.0, "its default; read only by the featherstone backend, which no training used before"),
-    ("sim.contact_kf", 100.0, "its default; read only by the featherstone backend, which no training used before"),
-    ("sim.contact_mu", 1.0, "its default; read only by the featherstone backend, which no training used before"),
-    ("reward.ramp_terms", [], "no reward ramp before the setting existed"),
-    ("reward.ramp_start", 0, "its default (unused without ramp terms)"),
-    ("reward.ramp_iterations", 0, "its default (unused without ramp terms)"),
-    ("reward.ramp_gate_vy_error", 0.0, "the ramp started at ramp_start before the gate existed"),
-    ("reward.ramp_gate_window", 100, "its default (unused without the gate)"),
-)
-"""Settings added after checkpoints were written: (dotted path, the behaviour the code had before, why). A
-checkpoint that lacks one of these gets that value, and the fill is reported; any other missing key is an error."""
-
-
 def env_config_from_dict(data: dict, migrated: list[str] | None = None) -> EnvConfig:
     """:class:`EnvConfig` from a checkpoint's ``infos['env_cfg']`` or ``config.json``'s ``env``.
 
-    Settings listed in :data:`MIGRATIONS` are filled with the behaviour of the code that wrote the checkpoint; a
-    checkpoint of a non-predictive preset written before the predictor existed gets the (never read) predictor
-    defaults. Each fill is appended to ``migrated`` as ``"path = value (why)"``."""
+    A setting added after the checkpoint was written is filled with the behaviour of the code that wrote it, as its
+    field declares (``wqwarp.utils.migration``; :func:`wqwarp.utils.migration.migrations` lists them); a checkpoint
+    of a non-predictive preset written before the predictor existed gets the (never read) predictor defaults. Each
+    fill is appended to ``migrated`` as ``"path = value (why)"``. Any other missing setting is a ValueError naming
+    it."""
     import copy
 
     data = copy.deepcopy(data)
@@ -598,12 +621,4 @@ def env_config_from_dict(data: dict, migrated: list[str] | None = None) -> EnvCo
     if "predictor" not in data and data.get("gait", {}).get("selection") != "predictive":
         data["predictor"] = dataclasses.asdict(PredictorConfig())
         notes.append("predictor = defaults (this preset never reads them; written before the predictor existed)")
-    for path, value, why in MIGRATIONS:
-        head, _, key = path.rpartition(".")
-        node = data
-        for part in head.split("."):
-            node = node.get(part) if isinstance(node, dict) else None
-        if isinstance(node, dict) and key not in node:
-            node[key] = value
-            notes.append(f"{path} = {value!r} ({why})")
-    return from_dict(EnvConfig, data)
+    return from_dict(EnvConfig, data, migrated=notes)

@@ -7,7 +7,8 @@ the logs (``Episode_Reward/<term>``), the CLI's ``--reward TERM=WEIGHT`` and the
 ``wqwarp.kernels.rewards`` (or the func given in the entry, for a term defined outside the package).
 
 Adding a term: one ``@wp.func`` in ``wqwarp.kernels.rewards`` and one :class:`RewardTerm` in :data:`BEYOND_PAPER` at
-weight 0, so that every preset keeps the paper's reward (plus its test in ``tests/kernels/test_rewards.py``). A term
+weight 0, so that every preset keeps the paper's reward, with ``migration=Migration(0.0, why)`` so that the
+checkpoints written before it load without it (plus its test in ``tests/kernels/test_rewards.py``). A term
 defined elsewhere (a study, a test) is passed to the env instead:
 ``WheeledGo1Env(cfg, reward_terms=(*TERMS, RewardTerm("mine", -1.0, "...", func=my_func)))``.
 
@@ -20,6 +21,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+
+from wqwarp.utils.migration import Migration
 
 Inputs = dict[str, np.ndarray]
 """NumPy inputs of the references: the fields of ``wqwarp.kernels.rewards.RewardInputs`` by name (``sigma`` and
@@ -42,6 +45,10 @@ class RewardTerm:
     func: object = None
     """The ``@wp.func`` computing r_k (signature of ``wqwarp.kernels.rewards``); None: the func called ``name`` in
     ``wqwarp.kernels.rewards`` (so that this registry imports no Warp)."""
+    migration: Migration | None = None
+    """A term added after checkpoints existed: the weight of the configurations written before it (0: the term was
+    not there) and why, the migration of its ``RewardConfig`` field (``wqwarp.utils.migration``). None: a term of
+    every configuration (Table II)."""
 
     def resolve(self):
         """The term's ``@wp.func``."""
@@ -94,11 +101,13 @@ BEYOND_PAPER: tuple[RewardTerm, ...] = (
     RewardTerm("p_cost", 0.0, "sum_j |tau_j| |qd_j| [W]: the paper's power cost (its evaluation metric, Sec. IV-A) "
                "as a reward term, substep average; not in Table II (0: off). Training draws 100-400 W (exploration "
                "noise, randomisation; the deterministic policy 11-64 W per task), so -0.01 per W costs 1-4 per "
-               "second of a reward that ends near 5 (docs/studies/residual_energy).", lambda x: x["p_cost"]),
+               "second of a reward that ends near 5 (docs/studies/residual_energy).", lambda x: x["p_cost"],
+               migration=Migration(0.0, "no power-cost term before the setting existed")),
     RewardTerm("joint_limits", 0.0, "sum_j max(0, l_j - q_j) + max(0, q_j - u_j) [rad] over the 12 leg joints, (l_j, "
                "u_j) the joint range shrunk about its centre to reward.soft_joint_limit of its width (legged_gym's "
                "dof_pos_limits: -10 with soft_dof_pos_limit 0.9 in legged_gym/envs/a1/a1_config.py); not in Table II "
-               "(0: off).", lambda x: _beyond_soft_limits(x)),
+               "(0: off).", lambda x: _beyond_soft_limits(x),
+               migration=Migration(0.0, "no joint-limit term before the setting existed")),
 )  # fmt: skip
 """Terms beyond the paper's reward, each at weight 0 by default (options measured side by side)."""
 

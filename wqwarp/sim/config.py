@@ -4,11 +4,12 @@ reading a config never loads Newton or MuJoCo)."""
 from __future__ import annotations
 
 import typing
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 from wqwarp.robot import constants as C
 from wqwarp.utils.checked_config import CheckedConfig, check_positive, require
+from wqwarp.utils.migration import migrate, since_default
 
 BACKEND_CLASSES: dict[str, str] = {
     "mujoco_cpu": "wqwarp.sim.backends.mujoco_cpu:MujocoCpuBackend",
@@ -63,7 +64,9 @@ class SimConfig(CheckedConfig):
     integral can hold a wheel against the ~2 N m scrub torque of skid-steer turning."""
     check_wheel_stability: bool = True
     """Refuse wheel gains whose airborne loop is unstable (kp dt / I >= 2). Off only to study that loop."""
-    joint_model: JointModel = "asset"
+    joint_model: JointModel = field(
+        default="asset", metadata=migrate("asset", "the USD's joint model, the only one before the setting existed")
+    )
     """Passive model of the 16 actuated joints: ``asset`` (the USD's: armature 0.01 kg m^2 on the legs and 2.19e-3
     on the wheels, no damping, no dry friction; ``tools/build_wheeled_go1.py`` says why) or ``authors`` (the authors'
     MuJoCo robot: damping 0.01 N m s/rad, armature 0.01 kg m^2 and friction loss 0.2 N m on every joint,
@@ -78,19 +81,35 @@ class SimConfig(CheckedConfig):
     """MuJoCo constraint-solver iterations (MuJoCo default)."""
     ls_iterations: int = 50
     """MuJoCo line-search iterations (MuJoCo default)."""
-    unstable_position_limit: float = 1.0e3
+    unstable_position_limit: float = field(
+        default=1.0e3, metadata=since_default("the divergence guard's default; before it, a diverged robot went unseen")
+    )
     """A robot whose coordinate exceeds this magnitude [m or rad] counts as diverged (``Simulator.unstable``)."""
-    unstable_velocity_limit: float = 1.0e3
+    unstable_velocity_limit: float = field(
+        default=1.0e3, metadata=since_default("the divergence guard's default; before it, a diverged robot went unseen")
+    )
     """A robot whose velocity exceeds this magnitude [m/s or rad/s] counts as diverged (wheels run below 50 rad/s)."""
-    contact_ke: float = 2.0e4
+    contact_ke: float = field(
+        default=2.0e4,
+        metadata=since_default("its default; read only by the featherstone backend, which no training used before"),
+    )
     """``featherstone`` only: normal stiffness of the spring-damper ground contact [N/m]. With ~37 N per wheel it
     penetrates ~2 mm; stiffer contacts need a smaller dt (explicit contact forces). See ``wqwarp.diff.rollout``."""
-    contact_kd: float = 300.0
+    contact_kd: float = field(
+        default=300.0,
+        metadata=since_default("its default; read only by the featherstone backend, which no training used before"),
+    )
     """``featherstone`` only: normal contact damping [N s/m] (damping ratio ~0.5 for a quarter of the robot)."""
-    contact_kf: float = 100.0
+    contact_kf: float = field(
+        default=100.0,
+        metadata=since_default("its default; read only by the featherstone backend, which no training used before"),
+    )
     """``featherstone`` only: slope of the regularised Coulomb friction below the slip limit [N s/m]; a wheel's
     spin is stable under it for kf dt / (m + I / R^2) < 2, i.e. kf < ~240 at dt 0.005."""
-    contact_mu: float = 1.0
+    contact_mu: float = field(
+        default=1.0,
+        metadata=since_default("its default; read only by the featherstone backend, which no training used before"),
+    )
     """``featherstone`` only: Coulomb friction coefficient [-] (the MuJoCo paths' default friction is 1.0 too)."""
     njmax: int | None = None
     """Constraint rows per world for ``mujoco_warp`` (default: Newton's estimate)."""
