@@ -4,7 +4,8 @@ The MuJoCo solvers behind :class:`wqwarp.sim.simulator.Simulator` are not differ
 robot, the same actuation (``kernels.actuation``: leg PD, wheel PID, torque limits) and the same power metrics
 (``kernels.power``) on ``newton.solvers.SolverFeatherstone``, whose steps ``wp.Tape`` can differentiate, with
 Newton's penalty contact (``SimConfig.contact_ke``, ``contact_kd``, ``contact_kf``, ``contact_mu``). The same physics
-is available to forward-only code as ``SimConfig(backend="featherstone")``.
+is available to forward-only code as ``SimConfig(backend="featherstone")``; the solver and contacts of both are
+built by ``wqwarp.sim.backends.featherstone.penalty_physics``.
 
 :class:`DiffRollout` records an open-loop rollout of N robots following the nominal gait (``kernels.gait.
 open_loop_gait_targets``, parameters h_b, h_s, f, DF_swing, stance x per robot) plus constant leg-target and
@@ -30,7 +31,6 @@ How far they can be trusted against horizon and dt: ``tools/studies/gradient_stu
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +43,8 @@ from wqwarp.kernels.contacts import anchor_contact_points, anchored_penalty_cont
 from wqwarp.kernels.state import accumulate_base_motion
 from wqwarp.robot import asset as robot
 from wqwarp.robot import constants as C
+from wqwarp.sim.backends.featherstone import penalty_physics
+from wqwarp.sim.model import apply_joint_model
 
 SOLVER_MATRICES = ("M", "J", "P", "H", "L")
 """Featherstone's solver-wide buffers that one step writes and its adjoint reads."""
@@ -50,21 +52,6 @@ SOLVER_MATRICES = ("M", "J", "P", "H", "L")
 PARAM_NAMES = gait_kernels.GAIT_PARAM_NAMES
 FALL_HEIGHT = 0.12
 """A trunk below this height [m] counts as fallen (standing: ~0.27 m)."""
-
-
-def penalty_physics(model, cfg):
-    """Set the spring-damper contact of ``cfg`` (``SimConfig.contact_*``) on every shape of ``model`` and build
-    ``(SolverFeatherstone, CollisionPipeline, Contacts)`` for it."""
-    import newton
-
-    for name, value in (("ke", cfg.contact_ke), ("kd", cfg.contact_kd), ("kf", cfg.contact_kf),
-                        ("mu", cfg.contact_mu)):  # fmt: skip
-        getattr(model, f"shape_material_{name}").fill_(float(value))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        solver = newton.solvers.SolverFeatherstone(model)
-        pipeline = newton.CollisionPipeline(model, requires_grad=False)
-    return solver, pipeline, pipeline.contacts()
 
 
 def shape_anchor_bodies(model, layout) -> np.ndarray:
@@ -134,8 +121,6 @@ class DiffRollout:
         """Evaluate the contact forces with ``kernels.contacts.anchored_penalty_contacts`` (a wheel's contact point
         carried by its calf, so it does not turn with the wheel within a substep) instead of inside Featherstone
         (Newton's ``eval_body_contact``, the point fixed on the wheel). Same forward forces (docs/differentiable.md)."""
-        from wqwarp.sim.model import apply_joint_model
-
         with wp.ScopedDevice(self.device):
             self.model = robot.scene_builder(n).finalize(device=self.device, requires_grad=True)
             self.layout = lay = robot.robot_layout(self.model)

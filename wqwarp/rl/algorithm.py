@@ -20,11 +20,13 @@ from typing import TYPE_CHECKING, Literal
 import torch
 import torch.distributed as dist
 from rsl_rl.algorithms import PPO
+from rsl_rl.utils import resolve_callable
 from tensordict import TensorDict
 from torch import nn
 
 from wqwarp.rl.estimator import EstimatorTrainer
 from wqwarp.rl.gait_selection import GaitSelector, PredictiveGaitSelector
+from wqwarp.utils.checked_config import require
 
 if TYPE_CHECKING:
     from wqwarp.rl.env import WheeledGo1Env
@@ -347,3 +349,15 @@ class KeptMeanActorsPPO(WqPPO):
 
     def compute_returns(self, obs: TensorDict) -> None:
         PPO.compute_returns(self, obs)
+
+
+def resolve_algorithm_class(name: str) -> type:
+    """The class ``"module:Class"`` names (imported: torch and rsl-rl come with it); ValueError naming
+    ``TrainConfig.algorithm_class`` unless it is WqPPO or a subclass of it."""
+    owner = "TrainConfig.algorithm_class"
+    try:
+        cls = resolve_callable(name)  # how rsl-rl's runner reads algorithm.class_name
+    except (ImportError, AttributeError, ValueError) as e:
+        raise ValueError(f"{owner} {name!r} does not import: {e}") from None
+    require(isinstance(cls, type) and issubclass(cls, WqPPO), owner, f"must name WqPPO or a subclass, got {name!r}")
+    return cls

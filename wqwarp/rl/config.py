@@ -468,22 +468,6 @@ class EnvConfig(CheckedConfig):
                 "needs a nominal gait (gait.selection != 'none')")  # fmt: skip
 
 
-def resolve_algorithm_class(name: str) -> type:
-    """The class ``"module:Class"`` names (imported: torch and rsl-rl come with it); ValueError naming
-    ``TrainConfig.algorithm_class`` unless it is WqPPO or a subclass of it."""
-    from rsl_rl.utils import resolve_callable
-
-    owner = "TrainConfig.algorithm_class"
-    try:
-        cls = resolve_callable(name)  # how rsl-rl's runner reads algorithm.class_name
-    except (ImportError, AttributeError, ValueError) as e:
-        raise ValueError(f"{owner} {name!r} does not import: {e}") from None
-    from wqwarp.rl.algorithm import WqPPO
-
-    require(isinstance(cls, type) and issubclass(cls, WqPPO), owner, f"must name WqPPO or a subclass, got {name!r}")
-    return cls
-
-
 @dataclass
 class TrainConfig(CheckedConfig):
     """rsl-rl PPO settings (legged_gym defaults unless noted)."""
@@ -517,7 +501,9 @@ class TrainConfig(CheckedConfig):
     clip_param: float = 0.2
     algorithm_class: str = "wqwarp.rl.algorithm:WqPPO"
     """The PPO class rsl-rl's runner builds (``"module:Class"``, importable): :class:`wqwarp.rl.algorithm.WqPPO` or a
-    subclass, e.g. ``wqwarp.rl.algorithm:KeptMeanActorsPPO``, the control of ``--env.predictor.label-source mean``."""
+    subclass, e.g. ``wqwarp.rl.algorithm:KeptMeanActorsPPO``, the control of ``--env.predictor.label-source mean``.
+    :meth:`check` reads only the format; ``wqwarp.rl.algorithm.resolve_algorithm_class`` imports and checks the
+    class (the config imports no torch)."""
 
     def check(self) -> None:
         module, sep, attr = self.algorithm_class.partition(":")

@@ -1,8 +1,11 @@
 """``featherstone``: Newton ``SolverFeatherstone`` with spring-damper ground contacts, the physics of the
-differentiable path (``wqwarp.diff.rollout``) for forward-only use; slow, for few robots. Contact summaries from
-the penalty contacts (``kernels.contacts.accumulate_penalty_contacts``)."""
+differentiable path (``wqwarp.diff.rollout``, which builds it with :func:`penalty_physics` from here) for
+forward-only use; slow, for few robots. Contact summaries from the penalty contacts
+(``kernels.contacts.accumulate_penalty_contacts``)."""
 
 from __future__ import annotations
+
+import warnings
 
 import warp as wp
 
@@ -11,14 +14,27 @@ from wqwarp.sim.backends.base import PhysicsBackend
 from wqwarp.sim.model import shape_slots
 
 
+def penalty_physics(model, cfg):
+    """Set the spring-damper contact of ``cfg`` (``SimConfig.contact_*``) on every shape of ``model`` and build
+    ``(SolverFeatherstone, CollisionPipeline, Contacts)`` for it."""
+    import newton
+
+    for name, value in (("ke", cfg.contact_ke), ("kd", cfg.contact_kd), ("kf", cfg.contact_kf),
+                        ("mu", cfg.contact_mu)):  # fmt: skip
+        getattr(model, f"shape_material_{name}").fill_(float(value))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        solver = newton.solvers.SolverFeatherstone(model)
+        pipeline = newton.CollisionPipeline(model, requires_grad=False)
+    return solver, pipeline, pipeline.contacts()
+
+
 class FeatherstoneBackend(PhysicsBackend):
     """Featherstone stepping Newton's state in place; no dynamics randomisation."""
 
     name = "featherstone"
 
     def __init__(self, sim) -> None:
-        from wqwarp.diff.rollout import penalty_physics
-
         super().__init__(sim)
         self.solver, self._pipeline, self.contacts = penalty_physics(sim.model, sim.cfg)
         self._slots = shape_slots(sim.model, sim.layout)
