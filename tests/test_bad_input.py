@@ -8,6 +8,7 @@ import contextlib
 import importlib
 import io
 import os
+import subprocess
 import sys
 
 import pytest
@@ -110,6 +111,27 @@ def test_every_entry_point_reports_a_usage_error_in_one_line(script):
     assert code == 2, (code, err)
     # one line: the unknown option, or first the required options that are missing
     assert err.count("\n") == 1 and "error:" in err and ("--no-such-option" in err or "required" in err), err
+
+
+USAGE_ERRORS = [("tools/bench.py", ["--sizes", "0"], "--sizes"),
+                ("tools/energy_audit.py", ["--seconds", "0"], "--seconds"),
+                ("tools/export_usd.py", ["--out", "x.usda", "--num-envs", "0"], "--num-envs"),
+                ("tools/gait_report.py", ["no_such_run"], "no such run directory"),
+                ("tools/plot_learning_curve.py", ["no_such_run", "--out", "x.png"], "no such run directory"),
+                ("tools/render_rollout.py", ["--checkpoint", "no_such.pt", "--out", "x.gif"], "no such checkpoint"),
+                ("tools/studies/train_log_curves.py", ["train.log", "--window", "0"], "--window"),
+                ("tools/studies/wheel_step_response.py", ["--gains", "2,10"], "--gains")]  # fmt: skip
+"""A command, options that parse but that it refuses (a :class:`wqwarp.cli.args.UsageError`), and what its message
+names."""
+
+
+@pytest.mark.parametrize(("script", "argv", "names"), USAGE_ERRORS, ids=[s for s, _, _ in USAGE_ERRORS])
+def test_a_refused_option_is_one_error_line_and_exit_2(script, argv, names, tmp_path):
+    r = subprocess.run([sys.executable, os.path.join(ROOT, script), *argv], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=120)  # fmt: skip
+    lines = r.stderr.splitlines()
+    assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: ") and names in lines[0], r.stderr
+    assert not os.listdir(tmp_path)  # nothing written
 
 
 def test_evaluate_into_an_unwritable_place(bad_files):

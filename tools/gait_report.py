@@ -16,7 +16,7 @@ import argparse
 import os
 import sys
 
-from wqwarp.cli.args import ArgumentParser
+from wqwarp.cli.args import ArgumentParser, UsageError, entry_point
 
 
 def summarise(run_dir: str, last: int) -> dict:
@@ -34,6 +34,7 @@ def summarise(run_dir: str, last: int) -> dict:
     return out
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = ArgumentParser(description=__doc__.split("\n\n")[0],
                         formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
@@ -42,15 +43,12 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=None, help="also write the summary to this JSON file")
     args = ap.parse_args(argv)
     if not os.path.isdir(args.run):
-        print(f"error: no such run directory {args.run!r}", file=sys.stderr)
-        return 2
+        raise UsageError(f"no such run directory {args.run!r}")
     if args.last < 1:
-        print("error: --last must be >= 1", file=sys.stderr)
-        return 2
+        raise UsageError("--last must be >= 1")
     rep = summarise(args.run, args.last)
     if not rep["scalars"]:
-        print(f"error: {args.run!r} holds no Gait/, Predictor/ or Metrics/ scalars", file=sys.stderr)
-        return 2
+        raise UsageError(f"{args.run!r} holds no Gait/, Predictor/ or Metrics/ scalars")
     print(f"{args.run}: mean over the last {args.last} iterations (up to iteration {rep.get('last_step')})")
     for k, v in rep["scalars"].items():
         print(f"  {k:<45} {v:10.4f}")

@@ -14,9 +14,10 @@ import json
 import os
 import sys
 
-from wqwarp.cli.args import ArgumentParser
+from wqwarp.cli.args import ArgumentParser, UsageError, entry_point
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("results", nargs="+", help="JSON files from train/evaluate.py --json")
@@ -29,12 +30,10 @@ def main(argv=None) -> int:
                 d = json.load(f)
             runs.append((d.get("preset", os.path.basename(path)), {r["task"]: r for r in d["results"]}))
         except (OSError, KeyError, json.JSONDecodeError) as e:
-            print(f"error: cannot read evaluation results {path!r}: {e}", file=sys.stderr)
-            return 2
+            raise UsageError(f"cannot read evaluation results {path!r}: {e}") from None
     tasks = [t for t in ("vx", "vy", "wz") if any(t in r for _, r in runs)]
     if not tasks:
-        print("error: no vx / vy / wz results in the given files", file=sys.stderr)
-        return 2
+        raise UsageError("no vx / vy / wz results in the given files")
     from wqwarp.eval.report import draw_tracking_power
 
     one = lambda v: {"mean": v, "std": 0.0, "n": 1}  # noqa: E731 - a single run: no spread

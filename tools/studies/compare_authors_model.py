@@ -26,7 +26,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.utils.io import output_problem
 
 SCENARIOS = {"standing": ("driving", (0.0, 0.0, 0.0)), "drive_0.5": ("driving", (0.5, 0.0, 0.0)),
@@ -151,6 +151,7 @@ def run(scenario: str, mjcf: str, dt: float, decimation: int, warmup: float, sec
     return out
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("--mjcf", required=True, help="the authors' resources/wheeled_go1/xml/wheeled_go1.xml")
@@ -168,14 +169,11 @@ def main(argv=None) -> int:
     names = args.scenarios.split(",")
     bad = [n for n in names if n not in SCENARIOS]
     if bad or args.dt <= 0 or args.decimation < 1 or args.seconds <= 0 or args.warmup < 0:
-        print(f"error: unknown scenario {bad} or non-positive dt / decimation / seconds", file=sys.stderr)
-        return 2
+        raise UsageError(f"unknown scenario {bad} or non-positive dt / decimation / seconds")
     if not os.path.isfile(args.mjcf):
-        print(f"error: no such MJCF file: {args.mjcf}", file=sys.stderr)
-        return 2
+        raise UsageError(f"no such MJCF file: {args.mjcf}")
     if args.json and (problem := output_problem(args.json)):
-        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
-        return 2
+        raise UsageError(f"--json {args.json!r}: {problem}")
     print("| scenario | robot | height [m] | v_x [m/s] | p_cost [W] | legs [W] | wheels [W] |")
     print("|---|---|---|---|---|---|---|")
     results = {}

@@ -23,7 +23,7 @@ import shutil
 import sys
 import tempfile
 
-from wqwarp.cli.args import add_result_options, doc_parser
+from wqwarp.cli.args import UsageError, add_result_options, doc_parser, entry_point
 
 
 def parse_tracking(items: list[str]) -> dict[str, list[str]]:
@@ -65,6 +65,7 @@ def checks(tracking: dict[str, list[str]], nominal: str | None = None) -> dict:
             "fig5_claims": _ordering_checks(summary), "targets": _target_checks(summary)}  # fmt: skip
 
 
+@entry_point
 def main(argv: list[str] | None = None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("--tracking", action="append", default=[], metavar="PRESET=FILE[,FILE...]",
@@ -82,8 +83,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.nominal and not os.path.isfile(args.nominal):
             raise ValueError(f"--nominal: no such file: {args.nominal}")
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        raise UsageError(str(e)) from None
     ap.check_outputs(args.json)
     out = checks(tracking, args.nominal)
     for line in out["fig5_claims"] + out["targets"]:

@@ -24,7 +24,7 @@ import sys
 
 import numpy as np
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.utils.io import output_problem
 
 COMMANDS = (-0.7, -0.5, -0.3, -0.1, 0.1, 0.3, 0.5, 0.7)
@@ -94,6 +94,7 @@ def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
     return {"open_loop": out}
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("--checkpoint", default=None, help="probe this policy (model_<it>.pt)")
@@ -105,19 +106,15 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=None, help="also write the results to this JSON file")
     args = ap.parse_args(argv)  # fmt: skip
     if (args.checkpoint is None) == (not args.open_loop) or args.seconds <= 2.0:
-        print("error: give exactly one of --checkpoint and --open-loop, and --seconds > 2", file=sys.stderr)
-        return 2
+        raise UsageError("give exactly one of --checkpoint and --open-loop, and --seconds > 2")
     if args.checkpoint is not None and not os.path.isfile(args.checkpoint):
-        print(f"error: no such checkpoint: {args.checkpoint}", file=sys.stderr)
-        return 2
+        raise UsageError(f"no such checkpoint: {args.checkpoint}")
     if args.json and (problem := output_problem(args.json)):
-        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
-        return 2
+        raise UsageError(f"--json {args.json!r}: {problem}")
     try:
         amps = [float(x) for x in args.amplitudes.split(",")]
     except ValueError:
-        print(f"error: --amplitudes must be comma-separated numbers, got {args.amplitudes!r}", file=sys.stderr)
-        return 2
+        raise UsageError(f"--amplitudes must be comma-separated numbers, got {args.amplitudes!r}") from None
 
     from wqwarp import quiet_warp
 

@@ -25,7 +25,7 @@ import json
 import os
 import sys
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.utils.io import output_problem
 
 COMMANDS = {"stand": (0.0, 0.0, 0.0), "vx0.5": (0.5, 0.0, 0.0), "vy0.3": (0.0, 0.3, 0.0), "wz0.5": (0.0, 0.0, 0.5)}
@@ -97,6 +97,7 @@ def probe(checkpoint: str, seconds: float, samples: int, seed: int) -> dict:
             "commands": rows}  # fmt: skip
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("--checkpoint", required=True, help="a residual policy's model_<it>.pt")
@@ -106,22 +107,18 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=None, help="also write the results to this JSON file")
     args = ap.parse_args(argv)
     if not os.path.isfile(args.checkpoint):
-        print(f"error: no such checkpoint: {args.checkpoint}", file=sys.stderr)
-        return 2
+        raise UsageError(f"no such checkpoint: {args.checkpoint}")
     if args.seconds <= 0 or args.samples < 2:
-        print("error: need --seconds > 0 and --samples >= 2", file=sys.stderr)
-        return 2
+        raise UsageError("need --seconds > 0 and --samples >= 2")
     if args.json and (problem := output_problem(args.json)):
-        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
-        return 2
+        raise UsageError(f"--json {args.json!r}: {problem}")
     from wqwarp import quiet_warp
 
     quiet_warp()
     try:
         out = probe(args.checkpoint, args.seconds, args.samples, args.seed)
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        raise UsageError(str(e)) from None
     print(f"noise escape probe of {args.checkpoint} (iteration {out['iteration']}), foot std "
           f"{sum(out['foot_std']) / 12:.3f}")  # fmt: skip
     print(f"{'command':<8} {'noise [rad]':>11} {'w/o posture':>11} {'ratio':>6} {'at clip':>8} {'at q lim':>8} "

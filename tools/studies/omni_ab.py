@@ -18,7 +18,7 @@ import json
 import os
 import sys
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.cli.time_to_skill import first_below
 
 THRESHOLDS = (0.2, 0.15, 0.1)
@@ -122,6 +122,7 @@ def archive(run: str, dest: str, every: int = 10) -> None:
     write_text_gz_atomic(os.path.join(dest, f"metrics_every{every}.jsonl.gz"), text)
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("runs", nargs="+", help="run directories written by train/ppo_newton.py")
@@ -139,8 +140,7 @@ def main(argv=None) -> int:
     try:
         results = [summarise(r, args.eval_json, args.lateral_json, upto=args.upto) for r in args.runs]
     except (OSError, ValueError, KeyError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        raise UsageError(str(e)) from None
     if args.archive:
         for run in args.runs:
             archive(run, os.path.join(args.archive, os.path.basename(run.rstrip("/"))))

@@ -20,7 +20,7 @@ import math
 import sys
 import time
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.utils.io import output_problem
 
 
@@ -83,6 +83,7 @@ def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, 
             "events": events}  # fmt: skip
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("--robot-steps", type=int, default=1_000_000, help="robot policy steps in all (default 1e6)")
@@ -98,16 +99,13 @@ def main(argv=None) -> int:
     from wqwarp.sim.config import BACKENDS
 
     if args.robot_steps < 1 or args.num_envs < 1 or args.decimation < 1 or not args.dt > 0:
-        print("error: --robot-steps, --num-envs, --decimation and --dt must be positive", file=sys.stderr)
-        return 2
+        raise UsageError("--robot-steps, --num-envs, --decimation and --dt must be positive")
     if args.preset not in PRESETS or args.backend not in BACKENDS:
-        print(f"error: unknown --preset {args.preset!r} or --backend {args.backend!r} (presets: "
-              f"{', '.join(sorted(PRESETS))}; backends: {', '.join(BACKENDS)})", file=sys.stderr)  # fmt: skip
-        return 2
+        raise UsageError(f"unknown --preset {args.preset!r} or --backend {args.backend!r} (presets: "
+                         f"{', '.join(sorted(PRESETS))}; backends: {', '.join(BACKENDS)})")  # fmt: skip
 
     if args.json and (problem := output_problem(args.json)):
-        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
-        return 2
+        raise UsageError(f"--json {args.json!r}: {problem}")
     res = fuzz(args.robot_steps, args.num_envs, args.preset, args.backend, args.dt, args.decimation, args.seed,
                progress=True)  # fmt: skip
     c = res["counts"]

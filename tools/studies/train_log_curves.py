@@ -21,7 +21,7 @@ from __future__ import annotations
 import re
 import sys
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 
 LINE = re.compile(r"\] (\d+)/(\d+) ETA [0-9:]+ \| reward\s+(-?[\d.]+) \| err vx ([\d.]+) vy ([\d.]+) wz ([\d.]+) \| "
                   r"power\s+([\d.]+) W \(legs\s+([\d.]+), wheels\s+([\d.]+)\)")  # fmt: skip
@@ -75,6 +75,7 @@ def first_below(rows: dict[int, dict[str, float]], key: str, threshold: float, w
     return None
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("logs", nargs="+", help="console logs of train/ppo_newton.py")
@@ -87,25 +88,20 @@ def main(argv=None) -> int:
         at = [int(x) for x in args.at.split(",") if x.strip()]
         skill = {k.strip(): float(v) for k, v in (p.split("=") for p in args.skill.split(",") if p.strip())}
     except ValueError:
-        print(f"error: --at {args.at!r} / --skill {args.skill!r}: need integers / axis=number pairs", file=sys.stderr)
-        return 2
+        raise UsageError(f"--at {args.at!r} / --skill {args.skill!r}: need integers / axis=number pairs") from None
     if bad := [k for k in skill if f"err_{k}" not in KEYS]:
-        print(f"error: --skill axes {bad}: choose from vx, vy, wz", file=sys.stderr)
-        return 2
+        raise UsageError(f"--skill axes {bad}: choose from vx, vy, wz")
     if args.window < 1:
-        print("error: --window must be >= 1", file=sys.stderr)
-        return 2
+        raise UsageError("--window must be >= 1")
     ap.check_outputs(args.json)
     out = {"window": args.window, "logs": {}}
     for path in args.logs:
         try:
             rows = read_log(path)
         except OSError as e:
-            print(f"error: cannot read {path}: {e}", file=sys.stderr)
-            return 2
+            raise UsageError(f"cannot read {path}: {e}") from None
         if not rows:
-            print(f"error: {path} has no progress lines of train/ppo_newton.py", file=sys.stderr)
-            return 2
+            raise UsageError(f"{path} has no progress lines of train/ppo_newton.py")
         table = {it: windowed(rows, it, args.window) for it in at}
         firsts = {k: first_below(rows, f"err_{k}", t, args.window) for k, t in skill.items()}
         out["logs"][path] = {"points": table, "first_below": firsts, "last_iteration": max(rows)}

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import sys
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 
 PATTERNS = {"common": (1.0, 1.0, 1.0, 1.0), "one": (0.0, 0.0, 0.0, 1.0), "fore_aft": (1.0, 1.0, -1.0, -1.0),
             "left_right": (-1.0, 1.0, -1.0, 1.0)}  # fmt: skip
@@ -67,6 +67,7 @@ def sweep(runner, vx: float, offsets: list[float], patterns: list[str], gait_id:
     return out
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("--checkpoint", required=True, help="model_<it>.pt of an ours run (its configuration is used)")
@@ -97,8 +98,7 @@ def main(argv=None) -> int:
         if args.wheel_ki is not None and args.wheel_ki < 0.0:
             raise ValueError(f"--wheel-ki {args.wheel_ki:g}: want >= 0")
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        raise UsageError(str(e)) from None
     ap.check_outputs(args.json)
 
     from wqwarp import quiet_warp
@@ -121,12 +121,10 @@ def main(argv=None) -> int:
         runner = make_policy_runner(args.checkpoint, args.preset, args.robots, cfg=cfg)
         gait_id = gait_index(args.gait, runner.env.cfg.gait.library)
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        raise UsageError(str(e)) from None
     if runner.env.num_actions != 20 or runner.env.gait_selector.name != "predictive":
-        print(f"error: {runner.preset} has no gait to force with wheel residuals (want a predictive preset with 20 "
-              f"actions, e.g. ours)", file=sys.stderr)  # fmt: skip
-        return 2
+        raise UsageError(f"{runner.preset} has no gait to force with wheel residuals (want a predictive preset with "
+                         f"20 actions, e.g. ours)")  # fmt: skip
     rows = sweep(runner, args.vx, offsets, patterns, gait_id, args.seconds)
     if args.json:
         write_result_json(args.json, {"checkpoint": args.checkpoint, "preset": runner.preset, "gait": args.gait,

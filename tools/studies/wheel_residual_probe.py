@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import sys
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.eval.wheel_probe import rollout
 
 ARMS = {"policy": ((), False), "zero_wheel_residuals": (("wheel",), False),
@@ -48,6 +48,7 @@ spends what the policy's wheels spend, a constant mismatch between the wheels' s
 wheel actions vary or where the feet are."""
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("--checkpoint", required=True, help="model_<it>.pt written by train/ppo_newton.py")
@@ -65,8 +66,7 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=None, help="write every rollout's numbers here")
     args = ap.parse_args(argv)
     if args.robots < 1 or args.seconds <= 2.0:
-        print("error: need --robots >= 1 and --seconds > 2 (the settling time)", file=sys.stderr)
-        return 2
+        raise UsageError("need --robots >= 1 and --seconds > 2 (the settling time)")
     ap.check_outputs(args.json)
 
     from wqwarp import quiet_warp
@@ -78,11 +78,9 @@ def main(argv=None) -> int:
     try:
         runner = make_policy_runner(args.checkpoint, args.preset, args.robots)
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        raise UsageError(str(e)) from None
     if runner.env.num_actions != 20:
-        print(f"error: {runner.preset} has no wheel residuals (16 joint actions)", file=sys.stderr)
-        return 2
+        raise UsageError(f"{runner.preset} has no wheel residuals (16 joint actions)")
     res = {}
     arms = {name: (zero, sample, False) for name, (zero, sample) in (ARMS | (NOISE_ARMS if args.noise else {})).items()}
     if args.held_wheels:
@@ -92,8 +90,7 @@ def main(argv=None) -> int:
         try:
             res[name] = rollout(runner, args.vx, args.seconds, 2.0, zero, sample, args.seed, fixed)
         except ValueError as e:  # --noise on a policy without an action distribution
-            print(f"error: {e}", file=sys.stderr)
-            return 2
+            raise UsageError(str(e)) from None
         r = res[name]
         print(f"{name:>21}: v_x {r['vx']:.3f} m/s | p_cost {r['p_cost']:6.1f} W (legs {r['p_cost_legs']:5.1f}, "
               f"wheels {r['p_cost_wheels']:5.1f}; wheels mech {r['p_mech_wheels']:5.1f}, Joule "

@@ -27,7 +27,7 @@ import sys
 
 import numpy as np
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.utils.io import output_problem
 
 FLIP_TORQUE = 0.06
@@ -89,6 +89,7 @@ def _fmt(x, spec):
     return "   -" if x is None else format(x, spec)
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("--speed", type=float, default=0.5, help="loaded run: commanded rolling speed [m/s] (default 0.5)")
@@ -113,22 +114,18 @@ def main(argv=None) -> int:
         if any(len(s) != 3 for s in sets):
             raise ValueError
     except ValueError:
-        print(f"error: --gains must look like '2,10,0;4,10,0', got {args.gains!r}", file=sys.stderr)
-        return 2
+        raise UsageError(f"--gains must look like '2,10,0;4,10,0', got {args.gains!r}") from None
     try:
         settings = [(float(a), int(b)) for a, b in (s.split("x") for s in args.settings.split(","))]
         if any(dt <= 0 or dec < 1 for dt, dec in settings):
             raise ValueError
     except ValueError:
-        print(f"error: --settings must look like '0.005x4,0.001x20', got {args.settings!r}", file=sys.stderr)
-        return 2
+        raise UsageError(f"--settings must look like '0.005x4,0.001x20', got {args.settings!r}") from None
     modes = args.modes.split(",")
     if not modes or any(m not in ("loaded", "airborne") for m in modes) or args.seconds <= 0.6:
-        print("error: --modes takes loaded and/or airborne, and --seconds must exceed 0.6", file=sys.stderr)
-        return 2
+        raise UsageError("--modes takes loaded and/or airborne, and --seconds must exceed 0.6")
     if args.json and (problem := output_problem(args.json)):
-        print(f"error: --json {args.json!r}: {problem}", file=sys.stderr)
-        return 2
+        raise UsageError(f"--json {args.json!r}: {problem}")
     from wqwarp.robot import constants as C
 
     print(f"{'mode':>8} {'dt':>6} {'kp':>5} {'ki':>5} {'kd':>5} {'rise[s]':>8} {'overshoot%':>10} {'settle[s]':>9} "

@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from wqwarp.cli.args import doc_parser, parse_counts
+from wqwarp.cli.args import UsageError, doc_parser, entry_point, parse_counts
 from wqwarp.utils.io import output_problem
 
 
@@ -37,16 +37,14 @@ def add_bench_options(ap: argparse.ArgumentParser, sizes: str) -> None:
     ap.add_argument("--json", default=None, help="also write the results as JSON to this path (atomically)")
 
 
-def parse_bench_args(ap: argparse.ArgumentParser,
-                     argv: list[str] | None) -> tuple[argparse.Namespace, list[int] | None]:
-    """Parse ``argv``; with the robot counts of ``--sizes``, or None after printing the one ``error:`` line about a
-    bad ``--sizes`` or an unwritable ``--json`` (the command then exits 2)."""
+def parse_bench_args(ap: argparse.ArgumentParser, argv: list[str] | None) -> tuple[argparse.Namespace, list[int]]:
+    """Parse ``argv``; with the robot counts of ``--sizes``. :class:`UsageError` for a bad ``--sizes`` or an
+    unwritable ``--json`` (the command's :func:`entry_point` prints it and exits 2)."""
     args = ap.parse_args(argv)
     try:
         return args, bench_sizes(args)
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return args, None
+        raise UsageError(str(e)) from None
 
 
 def bench_sizes(args: argparse.Namespace) -> list[int]:
@@ -140,6 +138,7 @@ def bench_size(n: int, device: str, backend: str, seconds: float, cuda_graph: bo
     }
 
 
+@entry_point
 def main(argv: list[str] | None = None) -> int:
     ap = doc_parser(__doc__, epilog_from=2)
     add_bench_options(ap, "1,64,256,1024")
@@ -149,8 +148,6 @@ def main(argv: list[str] | None = None) -> int:
                     help="mujoco_warp on CUDA: launch the decimation loop's kernels one by one instead of replaying "
                     "a captured CUDA graph (to measure what the graph saves)")  # fmt: skip
     args, sizes = parse_bench_args(ap, argv)
-    if sizes is None:
-        return 2
     import warp as wp
 
     from wqwarp import quiet_warp

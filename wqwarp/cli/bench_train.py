@@ -40,7 +40,7 @@ import os
 import sys
 import time
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.cli.bench import add_bench_options, device_description, parse_bench_args
 from wqwarp.rl.algorithm import WqPPO
 
@@ -259,6 +259,7 @@ def bench(n: int, args, threads: dict) -> dict:
     }
 
 
+@entry_point
 def main(argv: list[str] | None = None) -> int:
     ap = doc_parser(__doc__)
     add_bench_options(ap, "128,256,512")
@@ -277,21 +278,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--busy", type=int, default=0, help="processes spinning one core each while measuring (default 0)")
     ap.add_argument("--seed", type=int, default=1, help="seed of the env and the networks (default 1)")
     args, sizes = parse_bench_args(ap, argv)
-    if sizes is None:
-        return 2
     for name in ("iterations", "steps_per_env"):
         v = getattr(args, name)
         if v is not None and v < 1:
-            print(f"error: --{name.replace('_', '-')} must be >= 1, got {v}", file=sys.stderr)
-            return 2
+            raise UsageError(f"--{name.replace('_', '-')} must be >= 1, got {v}")
     if args.busy < 0 or args.seconds <= 0:
-        print("error: --busy must be >= 0 and --seconds > 0", file=sys.stderr)
-        return 2
+        raise UsageError("--busy must be >= 0 and --seconds > 0")
     from wqwarp.rl.presets import PRESETS
 
     if args.preset not in PRESETS:
-        print(f"error: unknown --preset {args.preset!r}; choose one of {', '.join(sorted(PRESETS))}", file=sys.stderr)
-        return 2
+        raise UsageError(f"unknown --preset {args.preset!r}; choose one of {', '.join(sorted(PRESETS))}")
     import warp as wp
 
     from wqwarp import quiet_warp
@@ -303,13 +299,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         dev = wp.get_device(args.device)
     except Exception as e:  # noqa: BLE001 - Warp raises several types for unknown devices
-        print(f"error: --device {args.device!r}: {e}", file=sys.stderr)
-        return 2
+        raise UsageError(f"--device {args.device!r}: {e}") from None
     try:
         threads = configure_threads(args.threads, args.torch_threads, args.physics_threads, args.update_threads)
     except ValueError as e:
-        print(f"error: --{e}", file=sys.stderr)
-        return 2
+        raise UsageError(f"--{e}") from None
     desc = device_description(dev)
     print(f"device: {desc}; preset {args.preset}; threads torch {threads['torch']} update {threads['update']} "
           f"physics {threads['physics']}; "

@@ -26,7 +26,7 @@ import sys
 
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.robot import constants as C
 from wqwarp.utils.io import directory_problem, write_text_atomic
 
@@ -293,6 +293,7 @@ def render() -> str:
     return stage.GetRootLayer().ExportToString()
 
 
+@entry_point
 def main(argv: list[str] | None = None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("--out", default=C.WHEELED_GO1_USD, help="output .usda path (default: the committed asset)")
@@ -304,8 +305,7 @@ def main(argv: list[str] | None = None) -> int:
             with open(args.out, encoding="utf-8") as f:
                 same = f.read() == text
         except OSError as e:
-            print(f"error: cannot read {args.out}: {e}", file=sys.stderr)
-            return 2
+            raise UsageError(f"cannot read {args.out}: {e}") from None
         print("asset up to date" if same else f"asset differs from a fresh build: {args.out}")
         return 0 if same else 1
     out_dir = os.path.dirname(os.path.abspath(args.out))

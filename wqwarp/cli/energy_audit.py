@@ -46,7 +46,7 @@ import time
 import numpy as np
 
 from wqwarp import quiet_warp
-from wqwarp.cli.args import doc_parser, repo_path
+from wqwarp.cli.args import UsageError, doc_parser, entry_point, repo_path
 from wqwarp.utils.io import output_problem
 
 quiet_warp()
@@ -79,10 +79,6 @@ POWERS = ("p_cost", "p_mech", "p_joule")
 GROUPS = ("", "_legs", "_wheels")
 
 
-class InputError(ValueError):
-    """Bad command-line input: reported as one ``error:`` line, exit code 2."""
-
-
 def parse_settings(text: str) -> list[tuple[float, int]]:
     """``"0.005x4,0.001x20"`` -> [(0.005, 4), (0.001, 20)]: physics dt [s] and decimation of each setting."""
     settings = []
@@ -91,9 +87,9 @@ def parse_settings(text: str) -> list[tuple[float, int]]:
         try:
             dt, decimation = float(dt_text), int(dec_text)
         except ValueError:
-            raise InputError(f"malformed setting {item.strip()!r}; expected DTxDECIMATION, e.g. 0.005x4") from None
+            raise UsageError(f"malformed setting {item.strip()!r}; expected DTxDECIMATION, e.g. 0.005x4") from None
         if not sep or not (dt > 0 and np.isfinite(dt) and decimation >= 1):
-            raise InputError(f"malformed setting {item.strip()!r}; need dt > 0 and an integer decimation >= 1")
+            raise UsageError(f"malformed setting {item.strip()!r}; need dt > 0 and an integer decimation >= 1")
         settings.append((dt, decimation))
     return settings
 
@@ -306,30 +302,27 @@ def _validate(args: argparse.Namespace) -> tuple[list[str], list[tuple[float, in
     scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     unknown = [s for s in scenarios if s not in SCENARIOS]
     if unknown or not scenarios:
-        raise InputError(f"unknown scenario {', '.join(unknown) or '(none given)'}; choose from {', '.join(SCENARIOS)}")
+        raise UsageError(f"unknown scenario {', '.join(unknown) or '(none given)'}; choose from {', '.join(SCENARIOS)}")
     settings = parse_settings(args.settings)
     if not (args.seconds > 0 and np.isfinite(args.seconds)):
-        raise InputError(f"--seconds must be > 0, got {args.seconds}")
+        raise UsageError(f"--seconds must be > 0, got {args.seconds}")
     if not (args.warmup >= 0 and np.isfinite(args.warmup)):
-        raise InputError(f"--warmup must be >= 0, got {args.warmup}")
+        raise UsageError(f"--warmup must be >= 0, got {args.warmup}")
     if args.num_envs < 1:
-        raise InputError(f"--num-envs must be >= 1, got {args.num_envs}")
+        raise UsageError(f"--num-envs must be >= 1, got {args.num_envs}")
     for dt, decimation in settings:
         if round(args.seconds / (dt * decimation)) < 1:
-            raise InputError(f"--seconds {args.seconds} is shorter than one policy step at dt {dt} x {decimation}")
+            raise UsageError(f"--seconds {args.seconds} is shorter than one policy step at dt {dt} x {decimation}")
     path = repo_path(DEFAULT_JSON) if args.json is None else args.json
     if problem := output_problem(path):
-        raise InputError(f"cannot write --json {path!r}: {problem}")
+        raise UsageError(f"cannot write --json {path!r}: {problem}")
     return scenarios, list(dict.fromkeys(settings)), path
 
 
+@entry_point
 def main(argv: list[str] | None = None) -> int:
     args = _parse_args(argv)
-    try:
-        scenarios, settings, path = _validate(args)
-    except InputError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    scenarios, settings, path = _validate(args)
     from wqwarp.sim.config import SimConfig
     from wqwarp.utils.provenance import git_state, write_result_json
 

@@ -35,13 +35,9 @@ import time
 
 import numpy as np
 
-from wqwarp.cli.args import ArgumentParser
+from wqwarp.cli.args import ArgumentParser, UsageError, entry_point
 from wqwarp.control.gaits import GAIT_NAMES
 from wqwarp.viz.usd import USD_EXTENSIONS, RolloutRecorder, check_output_path
-
-
-class UsageError(Exception):
-    """Bad input: printed as ``error: ...``, exit status 2."""
 
 
 class CommandSchedule:
@@ -268,6 +264,7 @@ def run_policy(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict, 
     return rec, meta, progress.wall
 
 
+@entry_point
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
@@ -288,15 +285,12 @@ def main(argv: list[str] | None = None) -> int:
             f"t={t:g}: {c[0]:g},{c[1]:g},{c[2]:g}" for t, c in zip(schedule.times, schedule.commands, strict=True)
         )
         size = rec.write(args.out, meta)
-    except UsageError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    except UsageError:
+        raise
     except ValueError as e:  # e.g. the output path became invalid while simulating
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        raise UsageError(str(e)) from None
     except OSError as e:
-        print(f"error: cannot write {args.out!r}: {e}", file=sys.stderr)
-        return 2
+        raise UsageError(f"cannot write {args.out!r}: {e}") from None
     now = time.perf_counter()
     print(
         f"wrote {args.out}: {rec.num_frames} frames x {rec.num_envs} robots, {size / 1e6:.2f} MB; wall time: set-up "

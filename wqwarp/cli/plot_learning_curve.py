@@ -13,10 +13,11 @@ from __future__ import annotations
 import os
 import sys
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.eval.report import load_scalars  # noqa: E402  (re-exported)
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("runs", nargs="+", help="run directories written by train/ppo_newton.py")
@@ -26,12 +27,10 @@ def main(argv=None) -> int:
     ap.check_outputs(args.out)
     for r in args.runs:
         if not os.path.isdir(r):
-            print(f"error: no such run directory {r!r}", file=sys.stderr)
-            return 2
+            raise UsageError(f"no such run directory {r!r}")
     labels = args.labels.split(";") if args.labels else [os.path.basename(os.path.normpath(r)) for r in args.runs]
     if len(labels) != len(args.runs):
-        print("error: --labels needs one label per run", file=sys.stderr)
-        return 2
+        raise UsageError("--labels needs one label per run")
     import matplotlib
 
     matplotlib.use("Agg")
@@ -43,8 +42,7 @@ def main(argv=None) -> int:
     for run, label in zip(args.runs, labels, strict=True):
         s = load_scalars(run)
         if "Train/mean_reward" not in s:
-            print(f"error: {run!r} has no training scalars (TensorBoard events)", file=sys.stderr)
-            return 2
+            raise UsageError(f"{run!r} has no training scalars (TensorBoard events)")
         for ax, (tag, name) in zip(axes, panels, strict=True):
             if tag in s:
                 ax.plot(s[tag][0], s[tag][1], label=label)

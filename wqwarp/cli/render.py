@@ -47,7 +47,7 @@ import time
 
 import numpy as np
 
-from wqwarp.cli.args import doc_parser
+from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.eval.timeline import parse_segments
 from wqwarp.utils.io import atomic_path, output_problem
 from wqwarp.viz import video
@@ -55,10 +55,6 @@ from wqwarp.viz import video
 EXTENSIONS = (".gif", ".mp4")
 POLICY_HZ = 50
 AVERAGE_SECONDS = 0.5  # window of the measured velocity and power shown
-
-
-class UsageError(Exception):
-    """Bad input or missing prerequisite: printed as ``error: ...``, exit status 2."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -209,6 +205,7 @@ def write_atomically(path: str, fps: int, produce) -> None:
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; a written file normally is not
 
 
+@entry_point
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
@@ -220,9 +217,8 @@ def main(argv=None) -> int:
             summary.update(render(args, segments, writer, progress=lambda s: print(s, flush=True)))
 
         write_atomically(args.out, args.fps, produce)
-    except (UsageError, video.RenderSetupError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    except video.RenderSetupError as e:  # no OpenGL backend or no .mp4 writer: a missing prerequisite, exit 2
+        raise UsageError(str(e)) from None
     print(f"wrote {args.out}: {summary['frames']} frames of {summary['width']}x{summary['height']}, "
           f"{summary['seconds']:g} s at {args.fps} fps, falls {summary['falls']}, MUJOCO_GL={gl}, "
           f"{summary['wall']:.1f} s")  # fmt: skip

@@ -19,7 +19,7 @@ import json
 import os
 import sys
 
-from wqwarp.cli.args import doc_parser, parse_floats
+from wqwarp.cli.args import UsageError, doc_parser, entry_point, parse_floats
 
 
 def first_below(values: list[float], threshold: float, window: int) -> int | None:
@@ -64,6 +64,7 @@ def analyse(run: str, metric: str, thresholds: list[float], window: int, bench: 
     return out
 
 
+@entry_point
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("runs", nargs="+", help="run directories written by train/ppo_newton.py")
@@ -86,13 +87,11 @@ def main(argv=None) -> int:
             with open(args.bench, encoding="utf-8") as f:
                 bench = {int(r["n"]): float(r["iteration_s"]) for r in json.load(f)["results"]}
         except (OSError, ValueError, KeyError) as e:
-            print(f"error: --bench {args.bench!r}: {e}", file=sys.stderr)
-            return 2
+            raise UsageError(f"--bench {args.bench!r}: {e}") from None
     try:
         results = [analyse(r, args.metric, thresholds, args.window, bench) for r in args.runs]
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        raise UsageError(str(e)) from None
     print(f"{'run':<28} {'robots':>6} {'s/it':>6} {'final':>6}  " + "  ".join(f"< {t:g}: it / Msteps / wall s"
                                                                           for t in thresholds))  # fmt: skip
     for r in results:
