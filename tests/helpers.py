@@ -25,22 +25,23 @@ def quiet_runner(cfg, steps_per_env: int = 24, log_dir: str | None = None, seed:
         return WqRunner(env, train.rsl_rl_dict(), log_dir=log_dir, device="cpu")
 
 
-def preset_runner(preset: str, num_envs: int, seed: int, steps_per_env: int = 24, profile: str = "paper"):
-    """:func:`quiet_runner` of preset ``preset`` with the levers of ``profile`` (``wqwarp.rl.profiles``; default
-    none), resolved as ``train/ppo_newton.py`` does (``default_roots``), with ``num_envs`` robots and seed ``seed``."""
-    from wqwarp.cli.train_args import default_roots
+def task_runner(task: str, num_envs: int, seed: int, steps_per_env: int = 24, overrides: dict | None = None):
+    """:func:`quiet_runner` of task ``task`` (``wqwarp.rl.tasks``: ``ours`` the recipe, ``ours-paper`` the paper's
+    method) with ``overrides`` (dotted path -> value) set over it, as ``train/ppo_newton.py`` resolves it, with
+    ``num_envs`` robots and seed ``seed``."""
+    from wqwarp.rl.tasks import TASKS, set_path
 
-    roots = default_roots(preset, profile)
-    cfg, train = roots["env"], roots["train"]
+    cfg, train = TASKS[task].make()
+    for path, value in (overrides or {}).items():
+        set_path({"env": cfg, "train": train}, path, value)
     cfg.sim.num_envs = num_envs
     train.num_steps_per_env = steps_per_env
     return quiet_runner(cfg, steps_per_env, seed=seed, train=train)
 
 
-def first_iteration(preset: str, num_envs: int, seed: int, steps_per_env: int = 8, profile: str = "paper"):
-    """A runner of ``preset`` with the levers of ``profile`` after one training iteration (rsl-rl's printout
-    silenced)."""
-    runner = preset_runner(preset, num_envs, seed, steps_per_env, profile)
+def first_iteration(task: str, num_envs: int, seed: int, steps_per_env: int = 8, overrides: dict | None = None):
+    """A runner of ``task`` (with ``overrides``) after one training iteration (rsl-rl's printout silenced)."""
+    runner = task_runner(task, num_envs, seed, steps_per_env, overrides)
     with contextlib.redirect_stdout(io.StringIO()):
         runner.learn(1)
     return runner

@@ -1,7 +1,9 @@
 """The refactoring guard: the first training iteration of fixed seeds equals the one recorded before the package was
 restructured (main at bc08f71): rollout rewards, observations and actions, and the networks after the update
-(actor, critic, estimator, power predictor). The third case is the default main job's configuration (``ours`` with
-the ``omni`` levers of ``wqwarp.rl.profiles``), recorded when it became the default.
+(actor, critic, estimator, power predictor). The paper's cases are the ``-paper`` tasks; ``ours+omni`` is the former
+default main job (``ours`` with the ``omni`` levers, written out below), recorded when it became the default;
+``ours+select`` is the former ``--profile select`` recorded at 0788a8c, which the ``ours`` task must equal bit for
+bit.
 
 ``python tests/test_behaviour_reference.py --record`` rewrites ``tests/data/first_iteration.npz``; do that only for a
 change that is meant to change behaviour, and say so in the commit."""
@@ -16,16 +18,17 @@ import numpy as np
 import pytest
 
 REFERENCE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "first_iteration.npz")
-CASES = (("ours", 5, "paper"), ("baseline", 7, "paper"), ("ours", 5, "omni"))
+OMNI = {"env.gait.lateral_gain": 0.35, "env.predictor.criterion": "kinematic", "env.predictor.label_source": "mean",
+        "env.predictor.label_fraction": 0.03125, "env.predictor.kinematic_yaw_limit": 0.2,
+        "train.init_noise_std_groups": (0.5, 0.25, 0.5)}  # fmt: skip
+"""The levers of the former ``--profile omni`` (docs/studies/omnidirectional), over the paper's ``ours``."""
+CASES = (("ours", "ours-paper", 5, {}), ("baseline", "baseline-paper", 7, {}), ("ours+omni", "ours-paper", 5, OMNI),
+         ("ours+select", "ours", 5, {}))  # fmt: skip
+"""(key prefix in the reference file, task, seed, overrides); the paper's cases keep the names recorded at bc08f71."""
 
 
-def label(preset: str, profile: str) -> str:
-    """The case's key prefix in the reference file (the paper's cases keep the names recorded at bc08f71)."""
-    return preset if profile == "paper" else f"{preset}+{profile}"
-
-
-def first_iteration(preset: str, seed: int, profile: str = "paper") -> dict[str, np.ndarray]:
-    runner = helpers.first_iteration(preset, num_envs=8, seed=seed, steps_per_env=8, profile=profile)
+def first_iteration(head: str, task: str, seed: int, overrides: dict) -> dict[str, np.ndarray]:
+    runner = helpers.first_iteration(task, num_envs=8, seed=seed, steps_per_env=8, overrides=overrides)
     env = runner.env
     st = runner.alg.storage
     out = {"rewards": st.rewards, "obs": st.observations["policy"], "privileged": st.observations["privileged"],
@@ -37,7 +40,6 @@ def first_iteration(preset: str, seed: int, profile: str = "paper") -> dict[str,
         for k, v in net.state_dict().items():
             if v.is_floating_point():
                 out[f"{name}/{k}"] = v
-    head = label(preset, profile)
     return {f"{head}/{k}": _fingerprint(k, v.detach().cpu().numpy().astype(np.float64)) for k, v in out.items()}
 
 
@@ -51,22 +53,24 @@ def _fingerprint(name: str, x: np.ndarray) -> np.ndarray:
     return np.concatenate([[flat.sum(), (flat**2).sum()], proj @ flat])
 
 
-@pytest.mark.parametrize("preset,seed,profile", CASES)
-def test_first_iteration_equals_the_recorded_one(preset, seed, profile):
+@pytest.mark.parametrize("head,task,seed,overrides", CASES, ids=[c[0] for c in CASES])
+def test_first_iteration_equals_the_recorded_one(head, task, seed, overrides):
     ref = np.load(REFERENCE)
-    now = first_iteration(preset, seed, profile)
-    keys = sorted(k for k in ref.files if k.startswith(f"{label(preset, profile)}/"))
+    now = first_iteration(head, task, seed, overrides)
+    keys = sorted(k for k in ref.files if k.startswith(f"{head}/"))
     assert keys == sorted(now), "the recorded and current runs hold different tensors"
     for k in keys:
-        # float32 sums may round differently once a computation moves between torch and Warp; anything else differs
-        np.testing.assert_allclose(now[k], ref[k], rtol=1e-4, atol=1e-5, err_msg=k)
+        if head == "ours+select":  # recorded on this machine at 0788a8c: the ours task equals it bit for bit
+            np.testing.assert_array_equal(now[k], ref[k], err_msg=k)
+        else:  # float32 sums may round differently once a computation moves between torch and Warp
+            np.testing.assert_allclose(now[k], ref[k], rtol=1e-4, atol=1e-5, err_msg=k)
 
 
 if __name__ == "__main__":
     if "--record" not in sys.argv:
         sys.exit("usage: python tests/test_behaviour_reference.py --record")
     data = {}
-    for preset, seed, profile in CASES:
-        data.update(first_iteration(preset, seed, profile))
+    for case in CASES:
+        data.update(first_iteration(*case))
     np.savez_compressed(REFERENCE, **data)
     print(f"wrote {REFERENCE} ({len(data)} arrays)")

@@ -12,14 +12,14 @@ from dataclasses import dataclass, field
 
 import pytest
 import torch
-from helpers import preset_runner
+from helpers import task_runner
 
 from wqwarp.rl.config import EnvConfig, GaitConfig, env_config_from_dict, from_dict, to_dict
 from wqwarp.utils.migration import migrate, migration_of, migrations, plain, since_default
 
 
 def _runner(seed: int):
-    return preset_runner("ours", num_envs=4, seed=seed)
+    return task_runner("ours-paper", num_envs=4, seed=seed)
 
 
 def test_another_gait_set_and_the_earlier_format(tmp_path):

@@ -1,34 +1,28 @@
 """The config tree: typed choices checked when set, numeric sanity at construction, no physics imported; every field
-settable from the command line with its docstring as help; the preset registry."""
+settable from the command line (tyro) with its docstring as help; the preset and task registries."""
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
+import json
+import os
 import subprocess
 import sys
 
 import pytest
 
-from wqwarp.cli.args import ArgumentParser
-from wqwarp.cli.config_args import (
-    add_config_arguments,
-    apply_overrides,
-    config_options,
-    config_overrides,
-    field_docs,
-    normalize_options,
-)
-from wqwarp.cli.train_args import ALIASES, build_parser, default_roots, parse_train_args, resolve_config, run_record
+from wqwarp.cli.args import UsageError
+from wqwarp.cli.train_args import ALIASES, parse_train_args, resolved_config
 from wqwarp.rl.config import EnvConfig, GaitConfig, PredictorConfig, TrainConfig, env_config_from_dict, to_dict
 from wqwarp.rl.presets import PAPER_NAMES, PRESET_ORDER, PRESETS, infer_preset, make_preset, preset_differences
+from wqwarp.rl.tasks import DEFAULT_TASK, RECIPE_LEVERS, TASKS, get_path, infer_task
 from wqwarp.sim.config import BACKENDS, SimConfig
 
 PHYSICS = {"newton", "mujoco", "warp", "torch"}
 
 
 @pytest.mark.parametrize("module", ["wqwarp.rl.config", "wqwarp.sim.config", "wqwarp.rl.presets",
-                                    "wqwarp.rl.profiles", "wqwarp.cli.train_args"])  # fmt: skip
+                                    "wqwarp.rl.tasks", "wqwarp.cli.train_args"])  # fmt: skip
 def test_reading_a_config_imports_no_physics_engine_and_no_torch(module):
     code = (f"import {module}, sys; from wqwarp.rl.presets import make_preset; make_preset('ours').sim; "
             f"print(sorted({PHYSICS!r} & {{m.split('.')[0] for m in sys.modules}}))")  # fmt: skip
@@ -83,88 +77,104 @@ def test_validate_checks_the_whole_tree_after_assignments():
         cfg.validate()
 
 
-def test_field_docs_come_from_the_docstring_under_each_field():
-    assert field_docs(SimConfig)["dt"].startswith("Physics substep [s]")
-    assert "gait clock" in field_docs(type(make_preset("ours").action))["phase_residual_mode"]
-    assert field_docs(TrainConfig)["max_iterations"] == "PPO iterations (paper: 4000 epochs)."
-    assert field_docs(type(make_preset("ours").reward))["energy"]  # a generated dataclass: field.metadata["doc"]
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DOC = "Title.\n\nEpilog."
 
 
-def _parse(*argv: str) -> argparse.Namespace:
-    return build_parser("Title.\n\nEpilog.").parse_args(normalize_options(list(argv)))
+def _parse(*argv: str):
+    return parse_train_args(DOC, list(argv))
+
+
+def _help(*argv: str, capsys) -> str:
+    with pytest.raises(SystemExit) as e:
+        _parse(*argv, "--help")
+    assert e.value.code in (0, None)
+    return capsys.readouterr().out
+
+
+def _default_of(text: str, option: str) -> str:
+    """The ``(default: X)`` tyro's help shows for ``option`` (its box and line wraps removed)."""
+    flat = " ".join(line.strip(" │|") for line in text.splitlines())
+    section = flat.split(f" {option} ", 1)[1].split(" --", 1)[0]
+    return section.split("(default: ", 1)[1].split(")", 1)[0]
 
 
 def test_every_type_of_field_parses_from_the_command_line():
-    roots = {"env": EnvConfig(), "train": TrainConfig()}
-    p = ArgumentParser(prog="x")
-    add_config_arguments(p, roots)
-    args = p.parse_args(normalize_options([
-        "--env.reward.energy", "-2e-5", "--env.sim.num_envs", "3", "--env.obs.no-noise", "--env.commands.vx-range",
-        "-1", "1.5", "--env.predictor.hidden-dims", "32", "16", "8", "--env.sim.nthread", "none",
-        "--env.domain_rand.enabled", "false", "--env.gait.selection", "predictive", "--train.max-iterations=7",
-        "--env.sim.cuda-graph"]))  # fmt: skip
-    over = config_overrides(args)
-    apply_overrides(roots, over)
-    env, train = roots["env"], roots["train"]
+    args = _parse("--env.reward.energy", "-2e-5", "--env.sim.num_envs", "3", "--env.obs.no-noise",
+                  "--env.commands.vx-range", "-1", "1.5", "--env.predictor.hidden-dims", "32", "16", "8",
+                  "--env.sim.nthread", "None", "--env.domain-rand.no-enabled", "--env.gait.selection", "fixed",
+                  "--train.max-iterations=7", "--env.sim.cuda-graph", "--env.reward.ramp-terms", "p_cost",
+                  "--env.gait.library.1.frequency", "1.5")  # fmt: skip
+    env, train = args.env, args.train
     assert env.reward.energy == -2e-5 and env.sim.num_envs == 3 and env.obs.noise is False
     assert env.commands.vx_range == (-1.0, 1.5) and env.predictor.hidden_dims == (32, 16, 8)
-    assert env.sim.nthread is None and env.domain_rand.enabled is False and env.gait.selection == "predictive"
-    assert train.max_iterations == 7 and env.sim.cuda_graph is True
-    assert list(over)[0] == "env.reward.energy"  # command-line order
+    assert env.sim.nthread is None and env.domain_rand.enabled is False and env.gait.selection == "fixed"
+    assert train.max_iterations == 7 and env.sim.cuda_graph is True and env.reward.ramp_terms == ("p_cost",)
+    assert env.gait.library[1].frequency == 1.5 and env.gait.library[1].name == "trotting"
+    assert args.overrides["env.reward.energy"] == -2e-5 and args.overrides["train.max_iterations"] == 7
     env.validate()
 
 
-def test_the_preset_comes_first_then_the_aliases_and_long_options_in_order():
-    args = _parse("--preset", "baseline", "--num-envs", "8", "--env.sim.num-envs", "6", "--dt", "0.002",
-                  "--decimation", "10", "--reward", "energy=-1e-4", "--temperature", "3", "0.1", "--true-state",
-                  "--max-iterations", "5")  # fmt: skip
-    env, train = resolve_config(args)
-    assert env.gait.selection == "none" and env.reward.residual == 0.0  # the baseline preset
-    assert env.sim.num_envs == 6 and (env.sim.dt, env.sim.decimation) == (0.002, 10)  # the later option wins
+def test_the_task_comes_first_then_the_short_flags_and_long_options():
+    args = _parse("baseline-paper", "--num-envs", "8", "--dt", "0.002", "--decimation", "10", "--reward",
+                  "energy=-1e-4", "--temperature", "3", "0.1", "--true-state", "--max-iterations", "5")  # fmt: skip
+    env, train = args.env, args.train
+    assert args.task == "baseline-paper" and env.gait.selection == "none" and env.reward.residual == 0.0
+    assert env.sim.num_envs == 8 and (env.sim.dt, env.sim.decimation) == (0.002, 10)
     assert env.reward.energy == -1e-4 and env.estimator.use_true_state is True
     assert (env.predictor.temperature_start, env.predictor.temperature_end) == (3.0, 0.1)
-    assert train.max_iterations == 5 and args.num_envs == 6 and args.max_iterations == 5
-    env, _ = resolve_config(_parse())
-    assert env.sim.num_envs == 128 and env.gait.selection == "predictive"  # the training command's defaults
+    assert train.max_iterations == 5
+    args = _parse("--task", "pmtg", "--env.sim.num-envs", "6")
+    assert args.task == "pmtg" and args.env.sim.num_envs == 6
+    args = _parse()
+    assert args.task == "ours" and args.env.sim.num_envs == 128 and args.env.gait.selection == "predictive"
 
 
-def test_the_run_record_holds_the_command_line_its_options_and_the_resolved_flags():
-    args = parse_train_args("Title.\n\nEpilog.", ["--num-envs", "4", "--env.reward.energy", "-2e-5", "--seed", "3"])
-    resolve_config(args)
-    rec = run_record(args)
-    assert rec["command"] == "train/ppo_newton.py --num-envs 4 --env.reward.energy -2e-5 --seed 3"
+def test_the_resolved_config_holds_the_task_the_command_line_and_what_it_changed():
+    args = _parse("--num-envs", "4", "--env.reward.energy", "-2e-5", "--seed", "3", "--log-dir", "x")
+    rec = resolved_config(args)
+    assert rec["task"] == "ours" and rec["command"] == ("train/ppo_newton.py --num-envs 4 --env.reward.energy -2e-5 "
+                                                        "--seed 3 --log-dir x")  # fmt: skip
     assert rec["overrides"] == {"env.sim.num_envs": 4, "env.reward.energy": -2e-5, "env.seed": 3}
-    assert rec["args"]["num_envs"] == 4 and rec["args"]["preset"] == "ours" and rec["args"]["save_interval"] == 50
-    assert not any(k.startswith("@") for k in rec["args"])
+    assert rec["args"]["log_dir"] == "x" and rec["args"]["resume"] is None and rec["env"]["sim"]["num_envs"] == 4
+    assert json.loads(json.dumps(rec)) == json.loads(json.dumps(rec))  # JSON-serialisable
 
 
-def test_every_alias_targets_a_config_field():
-    roots = default_roots()
-    paths = {o.path for name, cfg in roots.items() for _, _, leaves in config_options(name, cfg) for o in leaves}
-    assert {a.path for a in ALIASES} <= paths
+def test_every_short_flag_targets_a_config_field():
+    env, train = TASKS["ours"].make()
+    for flag, path in ALIASES.items():
+        get_path({"env": env, "train": train}, path)  # AttributeError for a stale path
+        assert flag.startswith("--") and "_" not in flag
 
 
 @pytest.mark.parametrize(("argv", "message"), [
-    (["--env.gait.selection", "greedy"], "invalid choice: 'greedy'"),
-    (["--env.sim.dt", "fast"], "invalid float value: 'fast'"),
+    (["--env.gait.selection", "greedy"], "invalid choice 'greedy'"),
+    (["--env.sim.dt", "fast"], "could not convert string to float: 'fast'"),
+    (["--env.sim.dtt", "0.1"], "did you mean --env.sim.dt?"),
     (["--reward", "speed=1"], "unknown term 'speed'"),
-    (["--reward", "energy=lots"], "the weight must be a number"),
-    (["--env.obs.noise", "maybe"], "expected true or false"),
+    (["--num-envs", "0"], "SimConfig.num_envs must be >= 1"),
+    (["--env.commands.vx-range", "2", "1"], "CommandConfig.vx_range must be (lo, hi) with lo <= hi"),
+    (["--temperature", "1"], "--temperature expects 2 values"),
+    (["ourz"], "unknown task 'ourz'; tasks: ours, ours-paper"),
+    (["--profile", "select"], "--profile was removed: the task id carries the recipe"),
+    (["--preset", "pmtg"], "--preset was removed: the method is the task id now"),
 ])  # fmt: skip
-def test_a_bad_value_exits_2_with_one_line(argv, message, capsys):
-    with pytest.raises(SystemExit) as e:
+def test_a_bad_command_line_is_one_usage_error(argv, message):
+    with pytest.raises(UsageError) as e:
         _parse(*argv)
-    err = capsys.readouterr().err
-    assert e.value.code == 2 and err.count("\n") == 1 and message in err, err
+    assert message in str(e.value) and "\n" not in str(e.value), str(e.value)
 
 
-def test_help_lists_every_option_with_its_help():
-    text = build_parser("Title.\n\nEpilog.").format_help()
-    for name, cfg in default_roots().items():
-        for _, _, leaves in config_options(name, cfg):
-            for leaf in leaves:
-                assert "--" + leaf.path.replace("_", "-") in text, leaf.path
-    assert "Physics substep [s]" in text and "--env.sim.*" in text and "--num-envs" in text
+def test_help_lists_the_tasks_the_short_flags_and_each_option_with_its_docstring(capsys):
+    text = _help(capsys=capsys)
+    for name in TASKS:
+        assert f"  {name} " in text, name
+    for flag in ALIASES:
+        assert flag in text, flag
+    assert "Physics substep [s]" in text and "--env.sim.dt" in text and "--train.max-iterations" in text
+    assert "||tau * qd||^2" in text  # a generated dataclass's field (RewardConfig): its doc reaches the help
+    assert _default_of(text, "--env.sim.wheel-ki") == "0.0"  # the ours task's value
+    assert _default_of(_help("ours-paper", capsys=capsys), "--env.sim.wheel-ki") == "2.0"  # the paper's
 
 
 def test_registry_names_each_preset_once():
@@ -180,8 +190,47 @@ def test_registry_names_each_preset_once():
         "action.use_nominal_wheels False (preset ours: True)"]  # fmt: skip
 
 
+def test_the_tasks_are_each_method_with_its_levers_and_as_the_paper_writes_it():
+    assert list(TASKS)[:2] == ["ours", "ours-paper"] and DEFAULT_TASK == "ours"
+    assert set(TASKS) == {n for m in PRESETS for n in (m, f"{m}-paper")}
+    for name, task in TASKS.items():
+        env, train = task.make()
+        assert infer_task(env, train) == name and infer_preset(env) == task.method
+        assert env.sim.num_envs * train.num_steps_per_env * train.max_iterations == pytest.approx(15.0e6, rel=1e-3)
+        if name.endswith("-paper"):  # the preset itself, with the budget
+            ref = make_preset(task.method)
+            ref.sim.num_envs = 128
+            assert to_dict(env) == to_dict(ref) and train == TrainConfig(max_iterations=4883), name
+    env, train = TASKS["ours"].make()  # the former --profile select
+    assert env.sim.wheel_ki == 0.0 and env.gait.lateral_gain == 0.35 and env.reward.p_cost == 0.0
+    assert (env.predictor.criterion, env.predictor.label_source) == ("kinematic_feasible", "mean")
+    assert env.predictor.label_command_cut and env.predictor.label_fraction == 0.03125
+    assert env.predictor.kinematic_yaw_limit == 0.2 and train.init_noise_std_groups == (0.5, 0.25, 0.5)
+    no_pred, np_train = TASKS["no_predictor"].make()  # a fixed gait: no predictor lever
+    assert no_pred.gait.lateral_gain == 0.35 and no_pred.predictor == PredictorConfig() and no_pred.sim.wheel_ki == 0
+    assert np_train.init_noise_std_groups == (0.5, 0.25, 0.5)
+    base, base_train = TASKS["baseline"].make()  # no nominal gait: only the wheel law applies
+    ref, _ = TASKS["baseline-paper"].make()
+    ref.sim.wheel_ki = 0.0
+    assert to_dict(base) == to_dict(ref) and base_train.init_noise_std_groups == ()
+    assert _parse("--env.gait.lateral-gain", "0.2").env.gait.lateral_gain == 0.2  # an option wins over the task
+    for lever in RECIPE_LEVERS:  # each lever is a config field, measured in a study that exists
+        get_path({"env": env, "train": train}, lever.path)
+        assert os.path.isfile(os.path.join(ROOT, "docs", "studies", lever.study, "README.md")), lever.study
+
+
+def test_a_new_task_is_one_registry_entry(monkeypatch):
+    from wqwarp.rl import tasks
+
+    entry = tasks.Task("ours-fast", "ours", "ours with a short horizon", (
+        tasks.Lever("env.predictor.horizon_s", 0.5, lambda cfg: True, "a test", "feasible_selection"),))
+    monkeypatch.setitem(tasks.TASKS, entry.name, entry)
+    args = _parse("ours-fast")
+    assert args.task == "ours-fast" and args.env.predictor.horizon_s == 0.5 and args.env.sim.wheel_ki == 2.0
+
+
 def test_a_new_preset_is_one_factory_and_one_registry_entry(monkeypatch):
-    from wqwarp.rl import presets
+    from wqwarp.rl import presets, tasks
 
     def walking_only() -> EnvConfig:
         cfg = EnvConfig()
@@ -190,8 +239,30 @@ def test_a_new_preset_is_one_factory_and_one_registry_entry(monkeypatch):
 
     entry = presets.Preset("walking_only", walking_only, "Walking", "fixed walking gait")
     monkeypatch.setitem(presets.PRESETS, entry.name, entry)
-    env, _ = resolve_config(_parse("--preset", "walking_only"))
+    monkeypatch.setitem(tasks.TASKS, "walking_only", tasks.Task("walking_only", "walking_only", "walking"))
+    env = _parse("walking_only").env
     assert env.gait.fixed_gait == "walking" and infer_preset(env) == "walking_only"
+
+
+def test_print_config_shows_the_resolved_task_and_builds_nothing(tmp_path):
+    """``ppo_newton.py --print-config``: the ours task with P-only wheels and the feasibility-aware selection;
+    ``ours-paper``: the paper's values. Nothing is written, no env is built (no physics imported)."""
+    def show(*argv):
+        r = subprocess.run([sys.executable, os.path.join(ROOT, "train", "ppo_newton.py"), *argv, "--print-config",
+                            "--log-dir", str(tmp_path / "run")], capture_output=True, text=True, cwd=tmp_path,
+                           timeout=120)  # fmt: skip
+        assert r.returncode == 0, r.stderr
+        return json.loads(r.stdout)
+
+    ours = show()
+    assert ours["task"] == "ours" and ours["env"]["sim"]["wheel_ki"] == 0.0 and ours["overrides"] == {}
+    assert ours["env"]["predictor"]["criterion"] == "kinematic_feasible"
+    assert ours["env"]["predictor"]["label_command_cut"] is True
+    paper = show("ours-paper", "--seed", "4")
+    assert paper["task"] == "ours-paper" and paper["env"]["sim"]["wheel_ki"] == 2.0 and paper["overrides"] == {
+        "env.seed": 4}
+    assert paper["env"]["predictor"]["criterion"] == "power" and paper["env"]["gait"]["lateral_gain"] == 0.0
+    assert not (tmp_path / "run").exists() and not (tmp_path / "runs").exists()
 
 
 def test_old_checkpoint_configs_still_read():
@@ -207,34 +278,29 @@ def test_gaits_tuned_on_the_differentiable_path_reach_the_resolved_config(tmp_pa
     """``--env.gait.tuned PATH`` (repeatable) puts the tuned frequency, DF_swing and stance x in place of the gait
     they were tuned from; the resolved config (what ``config.json`` and the checkpoints hold) carries them. A missing,
     malformed or foreign file is one line naming the option, exit 2."""
-    import json
-    import os
-
     from wqwarp.control.gaits import load_tuned_gait
 
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    trot, walk = (os.path.join(root, "docs", "studies", "diffsim", f"optimize_{g}_0.3.json")
+    trot, walk = (os.path.join(ROOT, "docs", "studies", "diffsim", f"optimize_{g}_0.3.json")
                   for g in ("trotting", "walking"))  # fmt: skip
-    args = parse_train_args("Title.\n\nEpilog.", ["--env.gait.tuned", trot, "--num-envs", "4", "--env.gait.tuned",
-                                                   walk])  # fmt: skip
-    env, _ = resolve_config(args)
+    args = _parse("--env.gait.tuned", trot, "--num-envs", "4", f"--env.gait.tuned={walk}")
+    env = args.env
     tuned = [load_tuned_gait(trot), load_tuned_gait(walk)]
     assert env.gait.library[1:] == tuple(tuned) and tuned[0].frequency != 1.2 and tuned[1].frequency != 0.8
     library = to_dict(env)["gait"]["library"]
     assert [g["name"] for g in library] == ["driving", "trotting", "walking"]
     assert library[1]["df_swing"] == tuned[0].df_swing and env_config_from_dict(to_dict(env)).gait == env.gait
-    assert run_record(args)["args"]["tuned_gaits"] == [trot, walk]
+    assert resolved_config(args)["tuned_gaits"] == [trot, walk]
 
     (tmp_path / "bad.json").write_text("{not json")
     (tmp_path / "other.json").write_text(json.dumps({"loss": 1.0}))
     for path, match in ((tmp_path / "missing.json", "No such file"), (tmp_path / "bad.json", "not JSON"),
                         (tmp_path / "other.json", "not a tuned gait")):  # fmt: skip
-        with pytest.raises(ValueError, match=rf"^--env.gait.tuned '{path}': .*{match}") as e:
-            resolve_config(_parse("--env.gait.tuned", str(path)))
+        with pytest.raises(UsageError, match=rf"^--env.gait.tuned '{path}': .*{match}") as e:
+            _parse("--env.gait.tuned", str(path))
         assert "\n" not in str(e.value)
-    r = subprocess.run([sys.executable, os.path.join(root, "train", "ppo_newton.py"), "--env.gait.tuned",
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "train", "ppo_newton.py"), "--env.gait.tuned",
                         str(tmp_path / "missing.json"), "--log-dir", str(tmp_path / "run")], capture_output=True,
-                       text=True, cwd=root, timeout=120)  # fmt: skip
+                       text=True, cwd=ROOT, timeout=120)  # fmt: skip
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--env.gait.tuned" in r.stderr, r.stderr
     assert not (tmp_path / "run").exists()
 
@@ -245,92 +311,7 @@ def test_gaits_tuned_on_the_differentiable_path_reach_the_resolved_config(tmp_pa
     ("rsl_rl.algorithms:PPO", "must name WqPPO or a subclass"),
 ])  # fmt: skip
 def test_the_algorithm_class_must_name_an_importable_wqppo(name, match):
-    with pytest.raises(ValueError, match=rf"^TrainConfig.algorithm_class .*{match}"):
-        resolve_config(_parse("--train.algorithm-class", name))
-    _, train = resolve_config(_parse("--train.algorithm-class", "wqwarp.rl.algorithm:KeptMeanActorsPPO"))
+    with pytest.raises(UsageError, match=rf"TrainConfig.algorithm_class .*{match}"):
+        _parse("--train.algorithm-class", name)
+    train = _parse("--train.algorithm-class", "wqwarp.rl.algorithm:KeptMeanActorsPPO").train
     assert train.rsl_rl_dict()["algorithm"]["class_name"] == "wqwarp.rl.algorithm:KeptMeanActorsPPO"
-
-
-def test_the_default_profile_sets_the_levers_each_method_can_use_and_paper_sets_none():
-    from wqwarp.rl.profiles import DEFAULT_PROFILE, OMNI_LEVERS, PROFILES
-
-    assert DEFAULT_PROFILE == "omni" and PROFILES["paper"].levers == ()
-    env, train = resolve_config(_parse())  # the default main job: ours with the omni levers, 15 M samples
-    assert env.gait.selection == "predictive" and env.gait.lateral_gain == 0.35
-    assert (env.predictor.criterion, env.predictor.label_source) == ("kinematic", "mean")
-    assert env.predictor.label_fraction == 0.03125 and env.predictor.kinematic_yaw_limit == 0.2
-    assert train.init_noise_std_groups == (0.5, 0.25, 0.5)
-    assert env.sim.num_envs * train.num_steps_per_env * train.max_iterations == pytest.approx(15.0e6, rel=1e-3)
-    for name in PRESETS:  # --profile paper: the preset itself, with the command's own budget
-        env, train = resolve_config(_parse("--preset", name, "--profile", "paper"))
-        ref = make_preset(name)
-        ref.sim.num_envs = 128
-        assert to_dict(env) == to_dict(ref) and train.init_noise_std_groups == ()
-    no_pred, np_train = resolve_config(_parse("--preset", "no_predictor"))  # a fixed gait: no predictor levers
-    assert no_pred.gait.lateral_gain == 0.35 and no_pred.predictor == PredictorConfig()
-    assert np_train.init_noise_std_groups == (0.5, 0.25, 0.5)
-    base, base_train = resolve_config(_parse("--preset", "baseline"))  # no nominal gait: no lever applies
-    ref = make_preset("baseline")
-    ref.sim.num_envs = 128
-    assert to_dict(base) == to_dict(ref) and base_train.init_noise_std_groups == ()
-    env, _ = resolve_config(_parse("--env.gait.lateral-gain", "0.2"))  # an option still wins over the profile
-    assert env.gait.lateral_gain == 0.2
-    fields = {o.path for name, cfg in default_roots().items() for _, _, leaves in config_options(name, cfg)
-              for o in leaves}  # fmt: skip
-    assert {lever.path for lever in OMNI_LEVERS} <= fields  # every lever is a command-line option too
-
-
-def test_the_energy_profile_adds_the_issue_22_levers_to_every_method():
-    from wqwarp.rl.profiles import ENERGY_LEVERS, OMNI_LEVERS, PROFILES
-
-    assert PROFILES["energy"].levers == OMNI_LEVERS + ENERGY_LEVERS
-    for name in PRESETS:  # the same energy recipe for every method, on top of what omni gives it
-        env, train = resolve_config(_parse("--preset", name, "--profile", "energy"))
-        omni_env, omni_train = resolve_config(_parse("--preset", name))
-        assert (env.reward.p_cost, env.sim.wheel_ki) == (-0.01, 0.0)
-        assert (env.reward.ramp_terms, env.reward.ramp_start, env.reward.ramp_iterations) == (("p_cost",), 2000, 1000)
-        assert env.reward.ramp_scale(1999) == 0.0 and env.reward.ramp_scale(2500) == 0.5
-        assert env.reward.ramp_scale(3000) == env.reward.ramp_scale(4882) == 1.0
-        env.reward.p_cost, env.sim.wheel_ki = omni_env.reward.p_cost, omni_env.sim.wheel_ki
-        env.reward.ramp_terms, env.reward.ramp_start, env.reward.ramp_iterations = (), 0, 0
-        assert to_dict(env) == to_dict(omni_env) and train == omni_train  # nothing else differs
-    env, _ = resolve_config(_parse("--profile", "energy", "--reward", "p_cost=-0.02", "--env.sim.wheel-ki", "2"))
-    assert (env.reward.p_cost, env.sim.wheel_ki) == (-0.02, 2.0)  # an option still wins over the profile
-    fields = {o.path for name, cfg in default_roots().items() for _, _, leaves in config_options(name, cfg)
-              for o in leaves}  # fmt: skip
-    assert {lever.path for lever in ENERGY_LEVERS} <= fields
-
-
-def test_the_wheels_profile_is_omni_with_p_only_wheels_and_no_energy_term():
-    from wqwarp.rl.profiles import OMNI_LEVERS, P_ONLY_WHEELS, PROFILES
-
-    assert PROFILES["wheels"].levers == (*OMNI_LEVERS, P_ONLY_WHEELS) and P_ONLY_WHEELS in PROFILES["energy"].levers
-    for name in PRESETS:
-        env, train = resolve_config(_parse("--preset", name, "--profile", "wheels"))
-        same, same_train = resolve_config(_parse("--preset", name, "--env.sim.wheel-ki", "0"))  # the A/B's command
-        assert env.sim.wheel_ki == 0.0 and env.reward.p_cost == 0.0 and env.reward.ramp_terms == ()
-        assert to_dict(env) == to_dict(same) and train == same_train
-
-
-def test_the_select_profile_is_wheels_with_the_feasible_rule_and_cut_labels():
-    from wqwarp.rl.profiles import PROFILES
-
-    for name in PRESETS:
-        env, train = resolve_config(_parse("--preset", name, "--profile", "select"))
-        wheels, wheels_train = resolve_config(_parse("--preset", name, "--profile", "wheels"))
-        if wheels.gait.selection != "predictive":  # a method without the predictor trains as under wheels
-            assert to_dict(env) == to_dict(wheels) and train == wheels_train, name
-            continue
-        ab = ("--profile", "wheels", "--env.predictor.criterion", "kinematic_feasible",
-              "--env.predictor.label-command-cut")
-        same, same_train = resolve_config(_parse("--preset", name, *ab))  # the A/B's command
-        assert to_dict(env) == to_dict(same) and train == same_train, name
-        assert env.predictor.criterion == "kinematic_feasible" and env.predictor.label_command_cut, name
-    assert "select" in PROFILES
-
-
-def test_an_unknown_profile_exits_2_with_one_line(capsys):
-    with pytest.raises(SystemExit) as e:
-        _parse("--profile", "fast")
-    err = capsys.readouterr().err
-    assert e.value.code == 2 and err.count("\n") == 1 and "invalid choice: 'fast'" in err, err

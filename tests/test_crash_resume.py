@@ -13,7 +13,7 @@ import sys
 import time
 
 import torch
-from helpers import preset_runner
+from helpers import task_runner
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TRAIN = os.path.join(ROOT, "train", "ppo_newton.py")
@@ -59,7 +59,7 @@ def test_sigkill_between_checkpoints_loses_at_most_one_interval_and_resumes(tmp_
 
 
 def _runner(seed: int):
-    return preset_runner("ours", num_envs=8, seed=seed, steps_per_env=8)
+    return task_runner("ours-paper", num_envs=8, seed=seed, steps_per_env=8)
 
 
 def test_resume_restores_networks_optimisers_schedule_and_random_state(tmp_path):

@@ -14,7 +14,7 @@ from wqwarp.rl.presets import make_preset
 
 
 def _first_iteration(seed: int) -> dict:
-    runner = first_iteration("ours", num_envs=8, seed=seed, steps_per_env=8)
+    runner = first_iteration("ours-paper", num_envs=8, seed=seed, steps_per_env=8)
     env = runner.env
     st = runner.alg.storage
     return {"rewards": st.rewards.clone(), "obs": st.observations["policy"].clone(), "actions": st.actions.clone(),

@@ -198,16 +198,15 @@ def test_protocols_run_back_to_back_on_one_env_give_what_a_fresh_env_gives(tmp_p
 
 @pytest.mark.parametrize("name", ["tracking", "push", "sim2sim", "timeline", "energymap", "lateral"])
 def test_each_protocol_records_a_command_line_that_gives_back_its_options(name):
-    from wqwarp.eval.options import from_namespace
-    from wqwarp.eval.protocols import PROTOCOLS, build_parser, equivalent_command, make_options
+    from wqwarp.cli.evaluate import parse_options
+    from wqwarp.eval.protocols import equivalent_command, make_options
 
     extra = {"segments": "0,0,0:0.5;0.8,0,0:0.5"} if name == "timeline" else {}  # a shell would split at ';'
     opts = make_options(name, checkpoint="runs/x/model_9.pt", seed=3, json="r.json", **extra)
     opts.validate()
     cmd = shlex.split(equivalent_command(name, opts))
     assert cmd[:3] == ["train/evaluate.py", "--protocol", name] and "--seed" in cmd
-    ns = build_parser(name, "", "", choose=True).parse_args(cmd[1:])
-    assert from_namespace(PROTOCOLS[name].options, ns) == opts
+    assert parse_options(name, cmd[3:], "evaluate.py", "") == opts
 
 
 def test_protocol_options_are_checked_before_any_work(tmp_path):
@@ -232,6 +231,7 @@ def test_a_new_protocol_is_one_function_and_one_registry_entry(tmp_path, monkeyp
     import json
     from dataclasses import dataclass
 
+    from wqwarp.cli import evaluate
     from wqwarp.eval import protocols
     from wqwarp.eval.options import ProtocolOptions, option
 
@@ -245,7 +245,7 @@ def test_a_new_protocol_is_one_function_and_one_registry_entry(tmp_path, monkeyp
 
     monkeypatch.setitem(protocols.PROTOCOLS, "hop", protocols.Protocol("hop", hop, HopOptions, "hops in place"))
     out = tmp_path / "hop.json"
-    assert protocols.main(["--protocol", "hop", "--checkpoint", "m.pt", "--hops", "5", "--json", str(out)]) == 0
+    assert evaluate.main(["--protocol", "hop", "--checkpoint", "m.pt", "--hops", "5", "--json", str(out)]) == 0
     d = json.loads(out.read_text())
     assert d["hops"] == 5 and d["seed"] == 0 and "--hops 5" in d["command"] and d["git"]
 

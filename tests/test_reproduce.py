@@ -8,8 +8,9 @@ import os
 
 import pytest
 
+from wqwarp.cli import reproduce as command
 from wqwarp.eval import reproduce
-from wqwarp.rl.profiles import PROFILES
+from wqwarp.rl.tasks import TASKS
 
 
 def _load(path):
@@ -19,8 +20,8 @@ def _load(path):
 
 def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     work, out = tmp_path / "work", tmp_path / "out"
-    args = ["--budget", "smoke", "--presets", "ours,pmtg", "--work", str(work), "--out", str(out)]
-    assert reproduce.main(args) == 0
+    args = ["--budget", "smoke", "--tasks", "ours,pmtg", "--work", str(work), "--out", str(out)]
+    assert command.main(args) == 0
     ev, res = work / "eval", out / "results" / "smoke"
     for name in ("RESULTS.md", "results/smoke/results.json", "results/smoke/tracking_power.png",
                  "results/smoke/ours_s1_timeline.png", "results/smoke/ours_s1_energymap.png"):  # fmt: skip
@@ -31,11 +32,12 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
         assert d["seed"] == 1 and d["config"]["sim"]["dt"] == 0.005 and d["wall_time_s"] > 0
         assert (res / f"{name}.json").is_file()
     summary, md = _load(res / "results.json"), (out / "RESULTS.md").read_text()
-    assert summary["profiles"] == ["omni"] and "Trained with `--profile omni`" in md  # the default levers, named
-    assert "Written by `python train/reproduce.py --budget smoke --profile omni`" in md  # the command that re-makes it
-    assert f"`omni` = {PROFILES['omni'].summary}" in md and "`energy` =" not in md  # ... and what they are
+    assert summary["trained_as"] == ["ours", "pmtg"] and summary["tasks"] == ["ours", "pmtg"]  # the recipes, named
+    assert "Written by `python train/reproduce.py --budget smoke --tasks ours,pmtg`" in md  # the command
+    assert f"`ours` = {TASKS['ours'].summary}" in md and "`baseline` =" not in md  # ... and what they are
     train_cfg = _load(work / "train" / "ours_s1" / "config.json")
-    assert "--profile omni" in train_cfg["command"] and train_cfg["env"]["gait"]["lateral_gain"] == 0.35
+    assert train_cfg["command"].startswith("train/ppo_newton.py ours ") and train_cfg["task"] == "ours"
+    assert train_cfg["env"]["gait"]["lateral_gain"] == 0.35 and train_cfg["env"]["sim"]["wheel_ki"] == 0.0
 
     # Tracking and energy: the page's numbers are the evaluation's.
     tracking = {r["task"]: r for r in _load(ev / "ours_s1_tracking.json")["results"]}
@@ -67,8 +69,9 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     for c in em["cells"]:
         assert set(c["measured_p_cost"]) == {"driving", "trotting", "walking"}
         assert c["predicted_winner"] == min(c["predicted_p_cost"], key=c["predicted_p_cost"].get)
-        # the rule the checkpoint runs (omni: kinematic): every cell has |v_y| or |w| = 0.7, so never driving
-        assert em["config"]["predictor"]["criterion"] == "kinematic" and c["selected"] in ("trotting", "walking")
+        # the rule the checkpoint runs (ours: kinematic_feasible): every cell has |v_y| or |w| = 0.7, never driving
+        assert em["config"]["predictor"]["criterion"] == "kinematic_feasible"
+        assert c["selected"] in ("trotting", "walking")
         assert max(c["share_not_in_forced_gait"].values()) < 0.5  # each robot ran the gait forced on it
     # The nominal gait with zero residual on stand and v_x (the energy targets' floor), for Ours only.
     nom = _load(ev / "ours_s1_nominal.json")
@@ -79,40 +82,46 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     assert "residual's energy, v_x task" in md and "| Ours, nominal gait alone | vx |" in md
 
     # A reproduction continued in another session without checkpoints: --import-from the results folder the report
-    # wrote takes every preset trained at this budget and profile as done; the page has the same numbers.
+    # wrote takes every task trained at this budget as the same task as done; the page has the same numbers.
     work2, out2 = tmp_path / "work2", tmp_path / "out2"
     capsys.readouterr()
-    assert reproduce.main(["--budget", "smoke", "--presets", "ours,pmtg", "--work", str(work2), "--out", str(out2),
-                           "--import-from", str(res)]) == 0  # fmt: skip
+    assert command.main(["--budget", "smoke", "--presets", "ours,pmtg", "--work", str(work2), "--out", str(out2),
+                         "--import-from", str(res)]) == 0  # fmt: skip
     assert "imported ours_s1" in capsys.readouterr().out
     assert not list(work2.glob("train/*/model_*.pt"))  # nothing trained again
     assert (work2 / "train" / "ours_s1" / reproduce.IMPORTED).is_file()
     summary2 = _load(out2 / "results" / "smoke" / "results.json")
-    assert summary2["presets"] == summary["presets"] and summary2["profiles"] == ["omni"]
+    assert summary2["presets"] == summary["presets"] and summary2["trained_as"] == ["ours", "pmtg"]
     assert summary2["training"]["ours"]["1"]["wall_time_s"] == summary["training"]["ours"]["1"]["wall_time_s"]
     budget = reproduce.BUDGETS["smoke"]
-    assert reproduce.import_mismatch(str(res), "ours_s1", budget, "omni") is None
-    assert "profile omni" in reproduce.import_mismatch(str(res), "ours_s1", budget, "paper")
+    assert reproduce.import_mismatch(str(res), "ours_s1", budget) is None
+    cfg = _load(res / "ours_s1_train_config.json")
+    (res / "ours-paper_s1_train_config.json").write_text(json.dumps(cfg))  # the ours recipe under another task id
+    assert "trained as ours," in reproduce.import_mismatch(str(res), "ours-paper_s1", budget)
+    legacy = {k: v for k, v in cfg.items() if k != "task"} | {"args": {"preset": "ours", "profile": "select"}}
+    (res / "ours-paper_s1_train_config.json").write_text(json.dumps(legacy))  # before the registry: select = ours
+    assert "trained as ours," in reproduce.import_mismatch(str(res), "ours-paper_s1", budget)
+    (res / "ours-paper_s1_train_config.json").unlink()
     longer = reproduce.Budget(**{**reproduce.asdict(budget), "iterations": 5})
-    assert "final is 4" in reproduce.import_mismatch(str(res), "ours_s1", longer, "omni")
+    assert "final is 4" in reproduce.import_mismatch(str(res), "ours_s1", longer)
     nominal = _load(res / "ours_s1_nominal.json")  # the nominal gait alone holds for any checkpoint of its config
     (res / "ours_s1_nominal.json").write_text(json.dumps({**nominal, "iteration": 0}))
-    assert reproduce.import_mismatch(str(res), "ours_s1", budget, "omni") is None
+    assert reproduce.import_mismatch(str(res), "ours_s1", budget) is None
 
     # A re-run redoes nothing that is there; a stage that cannot run is reported and the others go on.
     stamps = {p: p.stat().st_mtime_ns for p in ev.glob("*.json")}
-    assert reproduce.main([*args, "--stages", "train,tracking,push,report"]) == 0
+    assert command.main([*args, "--stages", "train,tracking,push,report"]) == 0
     assert {p: p.stat().st_mtime_ns for p in ev.glob("*.json")} == stamps
     os.remove(ev / "pmtg_s1_push.json")
     os.remove(work / "train" / "pmtg_s1" / "model_1.pt")
     capsys.readouterr()
-    assert reproduce.main([*args, "--stages", "push,report"]) == 1
+    assert command.main([*args, "--stages", "push,report"]) == 1
     assert "push pmtg seed 1" in capsys.readouterr().err
     page = (out / "RESULTS.md").read_text()
     assert "push pmtg seed 1" in page  # listed as not run, and its training without its final checkpoint as such
     assert "| PMTG | 1 | in progress: iteration 2 of 2 | - |" in page and "| Ours | 1 | " in page
     assert "in_progress" not in _load(res / "results.json")["training"]["ours"]["1"]
-    assert reproduce.main(["--presets", "nope"]) == 2
+    assert command.main(["--presets", "nope"]) == 2
 
 
 def test_training_progress_reads_the_runs_metrics_not_its_console(tmp_path):

@@ -28,41 +28,44 @@ def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
     assert any(f.startswith("events.out.tfevents") for f in os.listdir(log))
     record = json.loads((log / "config.json").read_text())  # the resolved tree and the command line beside the run
     assert record["command"].startswith("train/ppo_newton.py --num-envs 8 --max-iterations 2")
-    assert record["env"]["sim"]["num_envs"] == 8 and record["train"]["max_iterations"] == 2
-    assert record["overrides"]["train.save_interval"] == 1 and record["args"]["save_interval"] == 1
+    assert record["task"] == "ours" and record["env"]["sim"]["num_envs"] == 8 and record["train"]["max_iterations"] == 2
+    assert record["overrides"] == {"env.sim.num_envs": 8, "train.max_iterations": 2, "train.save_interval": 1}
     ckpt = torch.load(log / "model_1.pt", weights_only=False)
     assert ckpt["infos"]["num_actions"] == 20 and "estimator_state_dict" in ckpt
+    assert ckpt["infos"]["train_cfg"]["save_interval"] == 1  # the PPO settings travel with the checkpoint
     before = (log / "model_1.pt").read_bytes()
 
-    r = _run("ppo_newton.py", "--num-envs", "8", "--max-iterations", "2", "--log-dir", str(log),
-             "--resume", str(log / "model_1.pt"), "--save-interval", "1", "--no-export")  # fmt: skip
+    # Resumed with no option but the new total: the run goes on in its folder with its own non-default options
+    # (8 robots, a checkpoint every iteration), listed as it starts.
+    r = _run("ppo_newton.py", "--resume", str(log / "model_1.pt"), "--max-iterations", "4", "--no-export")
     assert r.returncode == 0, r.stderr[-2000:]
-    assert "resumed from" in r.stdout
-    assert (log / "model_3.pt").is_file()
+    assert "resumed from" in r.stdout and "options over it: train.max_iterations 4" in r.stdout, r.stdout
+    assert (log / "model_2.pt").is_file() and (log / "model_3.pt").is_file()
     assert (log / "model_1.pt").read_bytes() == before  # the checkpoint resumed from is never rewritten
-    assert torch.load(log / "model_3.pt", weights_only=False)["iter"] == 3
+    resumed = torch.load(log / "model_3.pt", weights_only=False)
+    assert resumed["iter"] == 3 and resumed["infos"]["env_cfg"]["sim"]["num_envs"] == 8
+    assert json.loads((log / "config.json").read_text()) == record  # the first record kept, the resume's beside it
+    assert json.loads((log / "config_resume_1.json").read_text())["overrides"] == {"train.max_iterations": 4}
 
     # The exported onboard policy runs on a history of observations.
     policy = torch.export.load(str(log / "export" / "policy.pt2")).module()
     meta = json.loads((log / "export" / "policy.json").read_text())
-    actions, power = policy(torch.zeros(2, meta["history_length"], meta["proprio_dim"]))  # ours: + predictor
+    outs = policy(torch.zeros(2, meta["history_length"], meta["proprio_dim"]))  # ours: + predictor (+ tracking head)
+    actions, power = outs[0], outs[1]
     assert actions.shape == (2, 20) and torch.isfinite(actions).all() and power.shape == (2, 3)
-    assert meta["outputs"] == ["actions", "predicted_power"]
+    assert meta["outputs"][:2] == ["actions", "predicted_power"] and len(outs) == len(meta["outputs"])
 
     # A fresh run into the same directory is refused (nothing already written is overwritten).
     r = _run("ppo_newton.py", "--num-envs", "8", "--max-iterations", "1", "--log-dir", str(log))
     assert r.returncode == 2 and "already holds checkpoints" in r.stderr
 
-    # A checkpoint of another layout is refused with a clear message.
-    r = _run("ppo_newton.py", "--preset", "baseline", "--num-envs", "8", "--max-iterations", "1",
-             "--log-dir", str(tmp_path / "other"), "--resume", str(log / "model_3.pt"))  # fmt: skip
-    assert r.returncode == 2 and "another observation/action layout" in r.stderr
-
-    # Resuming with other levers than the checkpoint's (here the paper's, the run had the default profile) is refused.
-    r = _run("ppo_newton.py", "--profile", "paper", "--num-envs", "8", "--max-iterations", "1",
-             "--log-dir", str(log), "--resume", str(log / "model_3.pt"))  # fmt: skip
-    assert r.returncode == 2 and "env.gait.lateral_gain 0.35 (here: 0.0)" in r.stderr, r.stderr
-    assert r.stderr.count("\n") == 1 and not (log / "model_4.pt").exists()
+    # Another task's id beside --resume is refused: the checkpoint's configuration is the run's.
+    r = _run("ppo_newton.py", "baseline", "--log-dir", str(tmp_path / "other"), "--resume", str(log / "model_3.pt"))
+    assert r.returncode == 2 and "was trained as ours, not as task baseline" in r.stderr, r.stderr
+    assert r.stderr.count("\n") == 1 and not (tmp_path / "other").exists()
+    # ... and so is a resume past its total.
+    r = _run("ppo_newton.py", "--resume", str(log / "model_3.pt"))
+    assert r.returncode == 2 and "already reached its 4 iterations" in r.stderr and not (log / "model_4.pt").exists()
 
     out_json = tmp_path / "eval.json"
     r = _run("evaluate.py", "--checkpoint", str(log / "model_3.pt"), "--tasks", "vx", "--num-envs", "4",
@@ -106,8 +109,8 @@ def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
 
 def test_bad_arguments_exit_2(tmp_path):
     r = _run("ppo_newton.py", "--num-envs", "0", "--log-dir", str(tmp_path / "x"))
-    assert r.returncode == 2 and "must be positive" in r.stderr
+    assert r.returncode == 2 and "SimConfig.num_envs must be >= 1" in r.stderr and r.stderr.count("\n") == 1
     r = _run("ppo_newton.py", "--resume", str(tmp_path / "missing.pt"), "--log-dir", str(tmp_path / "y"))
     assert r.returncode == 2 and "no such checkpoint" in r.stderr
     r = _run("ppo_newton.py", "--help")
-    assert r.returncode == 0 and "--preset" in r.stdout and "--resume" in r.stdout and "torchrun" in r.stdout
+    assert r.returncode == 0 and "ours-paper" in r.stdout and "--resume" in r.stdout and "torchrun" in r.stdout

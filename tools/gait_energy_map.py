@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import sys
 
+from wqwarp.cli.evaluate import main as protocol_main
 from wqwarp.eval import energy_map
-from wqwarp.eval.protocols import main as protocol_main
 
 
 def main(argv: list[str] | None = None) -> int:

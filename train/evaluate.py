@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import sys
 
-from wqwarp.eval.protocols import main as protocol_main
+from wqwarp.cli.evaluate import main as protocol_main
 
 
 def main(argv: list[str] | None = None) -> int:

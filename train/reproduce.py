@@ -1,10 +1,11 @@
-"""Reproduce the paper's evaluation in one command (``wqwarp.eval.reproduce``: the stages, budgets and options)."""
+"""Reproduce the paper's evaluation in one command (the command: ``wqwarp.cli.reproduce``; its stages and budgets:
+``wqwarp.eval.reproduce``)."""
 
 from __future__ import annotations
 
 import sys
 
-from wqwarp.eval.reproduce import main
+from wqwarp.cli.reproduce import main
 
 if __name__ == "__main__":
     sys.exit(main())

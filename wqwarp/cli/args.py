@@ -9,12 +9,11 @@ import contextlib
 import functools
 import io
 import math
-import os
 import re
 import sys
 from collections.abc import Callable, Sequence
 
-from wqwarp.utils.io import output_problem
+from wqwarp.utils.io import output_problem, repo_path  # noqa: F401  (repo_path: re-exported for the tools)
 
 USAGE_EXIT = 2
 """Exit code of a usage error (argparse's)."""
@@ -51,21 +50,26 @@ _RULE = set("─━-+╭╮╰╯ ")
 
 
 def tyro_error_line(text: str) -> str:
-    """tyro's boxed error message as one line: the message, and the first option tyro suggests for a misspelt one."""
-    rows = [_ANSI.sub("", line).strip().strip("│|").strip() for line in text.splitlines()]
+    """tyro's boxed error message (UTF-8 or ASCII box) as one line: its sections joined with ``;``, and the first
+    option it suggests for a misspelt one; the help pointers dropped."""
+    rows = [_ANSI.sub("", line).strip() for line in text.splitlines()]
     segments: list[list[str]] = [[]]
     for row in rows:
-        if row and set(row) <= _RULE:  # the box's top, bottom and inner rules
+        if row.startswith(("╭", "╰", "+-", "+=")) or (row and set(row) <= _RULE):  # the box's edges, a title line
             segments.append([])
-        elif row and "─" in row[:3]:  # the title line "╭─ Title ───╮": the message follows
+            continue
+        row = row.strip("│|").strip()
+        if row and set(row) <= _RULE:  # an inner rule
             segments.append([])
         elif row:
             segments[-1].append(row)
+    skip = ("For full helptext", "Perhaps you meant", "Argument helptext")
     segments = [s for s in segments if s]
-    if not segments:
-        return "invalid command line (see --help)"
-    message = re.sub(r"^Error parsing __tyro[^:]*: ", "", " ".join(segments[0]))
-    suggest = next((s[1].split()[0] for s in segments[1:] if s[0].startswith("Perhaps you meant") and len(s) > 1), "")
+    if len(segments) > 1 and len(segments[0]) == 1 and ":" not in segments[0][0]:  # the title of the ASCII form
+        segments = segments[1:]
+    kept = [" ".join(s) for s in segments if not s[0].startswith(skip)]
+    suggest = next((s[1].split()[0] for s in segments if len(s) > 1 and s[0].startswith("Perhaps you meant")), "")
+    message = re.sub(r"^Error parsing (?!-)[^:]*: ", "", "; ".join(kept) or "invalid command line")
     return message + (f" (did you mean {suggest}?)" if suggest else "") + " (see --help)"
 
 
@@ -122,13 +126,6 @@ def parse_counts(text: str) -> list[int]:
     if not values or min(values) < 1:
         raise ValueError(f"expected positive integers like 64,256, got {text!r}")
     return values
-
-
-def repo_path(*parts: str) -> str:
-    """Absolute path of ``parts`` inside the checkout holding this package (default result paths such as
-    ``repo_path("docs", "studies", "x", "x.json")`` do not depend on the working directory)."""
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    return os.path.join(root, *parts)
 
 
 def doc_parser(doc: str, epilog_from: int = 1, **kwargs) -> ArgumentParser:

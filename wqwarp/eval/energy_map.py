@@ -152,7 +152,7 @@ class EnergyMapOptions(SelectionOptions):
 
     grid: int = option(5, help="values per command axis (default 5: 2 x 25 cells)")
     seconds: float = option(4.0, help="rollout length [s]; the second half is measured")
-    png: str | None = option(None, help="draw the map here (matplotlib)", type=str, output=True)
+    png: str | None = option(None, help="draw the map here (matplotlib)", output=True)
 
     def validate(self) -> None:
         if self.grid < 2 or self.seconds < 0.2:

@@ -31,8 +31,8 @@ class LateralOptions(SelectionOptions):
 
     commands: str = option("-0.6,-0.3,0.3,0.6", help="comma-separated held v_y commands [m/s] (default "
                            "-0.6,-0.3,0.3,0.6)")  # fmt: skip
-    robots_per_command: int = option(8, help="robots holding each command (default 8)", type=int)
-    seconds: float = option(10.0, help="rollout length [s]; metrics after 2 s (default 10)", type=float)
+    robots_per_command: int = option(8, help="robots holding each command (default 8)")
+    seconds: float = option(10.0, help="rollout length [s]; metrics after 2 s (default 10)")
     per_gait: bool = option(False, help="predictive presets: also run every gait of the library forced")
 
     def command_list(self) -> list[float]:

@@ -1,21 +1,22 @@
 """Options of an evaluation protocol as one dataclass: each field is a command-line flag (``--num-envs`` for
-``num_envs``) with its help from the field's metadata, and the same object is what the protocol function takes when it
+``num_envs``, through tyro: ``wqwarp.cli.evaluate``) with its help and choices from the field's metadata, and the same
+object is what the protocol function takes when it
 is called from code (``train/reproduce.py``). The equivalent command line is derived back from it for the result's
 provenance (:func:`command_line`)."""
 
 from __future__ import annotations
 
-import argparse
 import shlex
 from dataclasses import MISSING, dataclass, field, fields
 
 from wqwarp.rl.config import SELECTION_CRITERIA
 
 
-def option(default=MISSING, help: str = "", **argparse_kwargs):  # noqa: A002 - argparse's own name
-    """A dataclass field that is also a command-line option: ``help`` and any ``argparse`` keywords (``type``,
-    ``choices``) in its metadata. No default: a required option."""
-    metadata = {"help": help, **argparse_kwargs}
+def option(default=MISSING, help: str = "", choices: tuple | None = None, output: bool = False):  # noqa: A002
+    """A dataclass field that is also a command-line option: its ``help``, its ``choices`` (a closed set of values)
+    and whether it names a result file (``output``: checked writable before any work) in its metadata. No default:
+    a required option."""
+    metadata = {"help": help, **({"choices": tuple(choices)} if choices else {}), "output": output}
     return field(metadata=metadata) if default is MISSING else field(default=default, metadata=metadata)
 
 
@@ -31,7 +32,7 @@ class ProtocolOptions:
     checkpoint: str = option(help="model_<it>.pt written by train/ppo_newton.py")
     device: str = option("cpu", help="cpu or cuda:N (default cpu)")
     seed: int = option(0, help="random seed of the evaluation (spawn yaws, pushes; default 0)")
-    json: str | None = option(None, help="also write the results to this JSON file", type=str, output=True)
+    json: str | None = option(None, help="also write the results to this JSON file", output=True)
 
     def validate(self) -> None:
         """ValueError with a one-line message for an option out of range (before any work)."""
@@ -51,27 +52,6 @@ class SelectionOptions(ProtocolOptions):
                                    help="predictive presets: select gaits by this criterion instead of the "
                                    "checkpoint's (a rule A/B on one policy; nothing learns); feasible and "
                                    "kinematic_feasible need a checkpoint with a tracking head")  # fmt: skip
-
-
-def add_options(parser: argparse.ArgumentParser, cls: type[ProtocolOptions], defaults: dict | None = None) -> None:
-    """One ``parser`` option per field of ``cls``; ``defaults`` replace the dataclass's (a protocol's own)."""
-    defaults = defaults or {}
-    for f in fields(cls):
-        kw = {k: v for k, v in f.metadata.items() if k != "output"}
-        default = defaults.get(f.name, f.default)
-        if default is MISSING:
-            kw.setdefault("type", str)
-            parser.add_argument(flag(f.name), required=True, **kw)
-        elif isinstance(default, bool):
-            parser.add_argument(flag(f.name), action="store_true", default=default, help=kw["help"])
-        else:
-            kw.setdefault("type", type(default) if default is not None else str)
-            parser.add_argument(flag(f.name), default=default, **kw)
-
-
-def from_namespace(cls: type[ProtocolOptions], ns: argparse.Namespace) -> ProtocolOptions:
-    """The options ``cls`` of parsed arguments ``ns``."""
-    return cls(**{f.name: getattr(ns, f.name) for f in fields(cls)})
 
 
 def command_line(prefix: str, opts: ProtocolOptions, defaults: dict | None = None) -> str:

@@ -8,16 +8,14 @@ The protocols, their options and defaults: :data:`PROTOCOLS` (``python train/eva
 
 from __future__ import annotations
 
-import argparse
 import sys
-import textwrap
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TextIO
 
 from wqwarp.eval.energy_map import EnergyMapOptions, draw_energy_map, energy_map
 from wqwarp.eval.lateral import LateralOptions, lateral
-from wqwarp.eval.options import ProtocolOptions, add_options, command_line, from_namespace
+from wqwarp.eval.options import ProtocolOptions, command_line
 from wqwarp.eval.timeline import TimelineOptions, draw_timeline, timeline
 from wqwarp.eval.tracking import TrackingOptions, push, sim2sim, tracking
 
@@ -100,46 +98,3 @@ def run_protocol(name: str, opts: ProtocolOptions, log: TextIO | None = None, co
     if png and p.draw is not None:
         p.draw(result, png, command)
     return result
-
-
-def build_parser(name: str, description: str, epilog: str, choose: bool) -> argparse.ArgumentParser:
-    """The command line of protocol ``name``; with ``choose`` a ``--protocol`` option picks among all of them."""
-    from wqwarp.cli.args import ArgumentParser
-
-    p = protocol(name)
-    if choose:
-        epilog += "\n\nProtocols (--protocol NAME --help lists its options):\n" + "\n".join(
-            textwrap.fill(q.doc, 116, initial_indent=f"  {q.name:<10} ", subsequent_indent=" " * 13)
-            for q in PROTOCOLS.values()
-        )
-    parser = ArgumentParser(description=description, epilog=epilog,
-                            formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
-    if choose:
-        parser.add_argument("--protocol", choices=tuple(PROTOCOLS), default="tracking",
-                            help="evaluation protocol (default tracking; listed below)")  # fmt: skip
-    add_options(parser, p.options, p.defaults)
-    return parser
-
-
-def main(argv: list[str] | None = None, name: str | None = None, doc: str = "") -> int:
-    """Command-line entry: protocol ``name``, or the one ``--protocol`` names (default tracking) when None. ``doc``:
-    the script's docstring (its first paragraph is the description, the rest the epilog). Exit code 2 with one line
-    ``error: ...`` for bad options, an unwritable output or a checkpoint that cannot be evaluated."""
-    argv = sys.argv[1:] if argv is None else list(argv)
-    choose = name is None
-    if choose:
-        pre = argparse.ArgumentParser(add_help=False)
-        pre.add_argument("--protocol", default="tracking")
-        name = pre.parse_known_args(argv)[0].protocol
-        name = name if name in PROTOCOLS else "tracking"  # the full parser reports an unknown one
-    description, _, epilog = doc.partition("\n\n")
-    ns = build_parser(name, description, epilog, choose).parse_args(argv)
-    from wqwarp import quiet_warp
-
-    quiet_warp()
-    try:
-        run_protocol(name, from_namespace(protocol(name).options, ns), command=" ".join([sys.argv[0], *argv]))
-    except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    return 0

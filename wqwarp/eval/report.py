@@ -13,6 +13,7 @@ import shutil
 import statistics
 
 from wqwarp.rl.presets import PAPER_NAMES
+from wqwarp.rl.tasks import TASKS
 
 TABLE3_ORDER = ("ours", "baseline", "pmtg", "no_wheel_vel", "no_predictor")
 PAPER_TABLE3 = {
@@ -163,16 +164,26 @@ def _train_info(work: str, preset: str, seed: int, done: bool) -> dict:
     return info
 
 
-def run_profile(work: str, preset: str, seed: int) -> str | None:
-    """The lever profile a reproduction's training ran with (its ``config.json``; ``paper`` for a run written before
-    the profiles existed, None without a record)."""
-    cfg = read_json(os.path.join(work, "train", f"{preset}_s{seed}", "config.json"))
-    return None if cfg is None else config_profile(cfg)
+def run_task(work: str, task: str, seed: int) -> str | None:
+    """The task a reproduction's training ran as (its ``config.json``; :func:`config_task`), None without a record."""
+    cfg = read_json(os.path.join(work, "train", f"{task}_s{seed}", "config.json"))
+    return None if cfg is None else config_task(cfg)
 
 
-def config_profile(cfg: dict) -> str:
-    """The lever profile of a training's ``config.json`` (``paper`` for one written before the profiles existed)."""
-    return (cfg.get("args") or {}).get("profile", "paper")
+def config_task(cfg: dict) -> str:
+    """The task of a training's ``config.json``. Runs written before the task registry name a preset and a lever
+    profile: ``select`` was the ``<preset>`` task's recipe and ``paper`` the ``<preset>-paper`` task; the other
+    profiles are no task (``"<preset> (--profile omni)"``)."""
+    if "task" in cfg:
+        return cfg["task"]
+    args = cfg.get("args") or {}
+    preset, profile = args.get("preset", "ours"), args.get("profile", "paper")
+    return {"select": preset, "paper": f"{preset}-paper"}.get(profile, f"{preset} (--profile {profile})")
+
+
+def method_of(task: str) -> str:
+    """The paper's method (preset name) of a task id; a preset name is its own."""
+    return TASKS[task].method if task in TASKS else task
 
 
 def write_report(work: str, out: str, budget_name: str, budget, presets: list[str], seeds: list[int],
@@ -188,7 +199,9 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
     git = git_state()  # before this report writes anything
     res_dir = os.path.join(out, "results", budget_name)
     os.makedirs(res_dir, exist_ok=True)
-    data = collect(work, presets, seeds)
+    tasks, presets = presets, [method_of(t) for t in presets]  # files are named by task, the page by method
+    data = collect(work, tasks, seeds)
+    data["presets"] = {method_of(t): entry for t, entry in data["presets"].items()}
     figures = {}
     runs = [(PAPER_NAMES[p], data["presets"][p]["tracking"]) for p in presets if data["presets"][p]["tracking"]]
     if runs:
@@ -203,8 +216,8 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
         hits = sorted(n for n in copied if n.endswith(f"_{kind}.png"))
         if hits:
             figures[kind] = hits[0]
-    training = {p: {s: _train_info(work, p, s, (p, s) in trained) for s in seeds} for p in presets}
-    for p in presets:  # each finished training's configuration and its log (one line per 10 iterations, the summary)
+    training = {p: {s: _train_info(work, p, s, (p, s) in trained) for s in seeds} for p in tasks}
+    for p in tasks:  # each finished training's configuration and its log (one line per 10 iterations, the summary)
         for sd in seeds:
             base = os.path.join(work, "train", f"{p}_s{sd}")
             if (p, sd) not in trained:
@@ -224,9 +237,10 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
     for name in copied:
         if name.endswith(".json"):
             eval_s += float(read_json(os.path.join(res_dir, name)).get("wall_time_s") or 0.0)
-    profiles = sorted({x for p in presets for sd in seeds if (x := run_profile(work, p, sd))})
-    summary = {"budget": budget_name, "sizes": asdict(budget), "presets": presets, "seeds": seeds,
-               "profiles": profiles, "wall_time_s": wall_s, "evaluation_wall_time_s": eval_s, "training": training,
+    trained_as = sorted({x for p in tasks for sd in seeds if (x := run_task(work, p, sd))})
+    training = {method_of(t): per_seed for t, per_seed in training.items()}
+    summary = {"budget": budget_name, "sizes": asdict(budget), "presets": presets, "tasks": tasks, "seeds": seeds,
+               "trained_as": trained_as, "wall_time_s": wall_s, "evaluation_wall_time_s": eval_s, "training": training,
                "figures": figures, **data}  # fmt: skip
     write_result_json(os.path.join(res_dir, "results.json"), summary)
     md = render_markdown(summary, budget_name, budget, res_dir, out, work, git)
@@ -376,13 +390,10 @@ def _driving_cell(summary: dict, res_dir: str) -> tuple[float, float] | None:
     return None
 
 
-def _profile_lines(names: list[str]) -> str:
-    """``"`omni` = ...; `paper` = ..."`` for the lever profiles a page's trainings ran with (all of them when none is
-    recorded), each with its summary from ``wqwarp.rl.profiles``."""
-    from wqwarp.rl.profiles import PROFILES
-
-    known = [n for n in names if n in PROFILES] or list(PROFILES)
-    return "; ".join(f"`{n}` = {PROFILES[n].summary}" for n in known)
+def _task_lines(names: list[str]) -> str:
+    """``"`ours` = ...; `pmtg` = ..."`` for the tasks a page's trainings ran as, each with its summary from
+    ``wqwarp.rl.tasks`` (a run of a removed lever profile is named as it was)."""
+    return "; ".join(f"`{n}` = {TASKS[n].summary}" if n in TASKS else f"`{n}`" for n in names) or "not recorded"
 
 
 def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: str, work: str, git: dict) -> str:
@@ -390,20 +401,21 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     pres = summary["presets"]
     samples = budget.num_envs * budget.steps_per_env * budget.iterations
     paper_samples = 4096 * 24 * 4000
-    profiles = summary.get("profiles") or []
-    profile_flag = f" --profile {profiles[0]}" if len(profiles) == 1 else ""
+    tasks = summary.get("tasks") or pres
+    default = list(pres) == [t for t in TASKS if "-" not in t] and list(tasks) == list(pres)
+    tasks_flag = "" if default else f" --tasks {','.join(tasks)}"
+    trained_as = summary.get("trained_as") or ([f"--profile {x}" for x in summary.get("profiles", [])])
     lines = [
         f"# Results: reproduction of the paper's evaluation ({budget_name} budget)",
         "",
-        f"Written by `python train/reproduce.py --budget {budget_name}{profile_flag}` (this page: "
+        f"Written by `python train/reproduce.py --budget {budget_name}{tasks_flag}` (this page: "
         "`wqwarp/eval/report.py`) at commit "
         f"`{(git.get('commit') or 'unknown')[:12]}`{' (uncommitted changes)' if git.get('dirty') else ''}; seeds "
         f"{', '.join(map(str, summary['seeds']))}. Every number below comes from a JSON in `{rel}/` that records the "
         "command that produced it, its commit, seed, resolved configuration and wall time; `results.json` collects "
         "them.",
         "",
-        f"**Levers.** Trained with `--profile {' / '.join(profiles or ['?'])}` (`wqwarp/rl/profiles.py`"
-        f", docs/training.md): {_profile_lines(profiles)}.",
+        f"**Recipes.** Trained as the tasks (`wqwarp/rl/tasks.py`, docs/training.md): {_task_lines(trained_as)}.",
         "",
         f"**Budget.** Training: {budget.num_envs} robots x {budget.steps_per_env} steps x {budget.iterations} "
         f"iterations = {samples / 1e6:.2f} M samples per preset and seed, {100 * samples / paper_samples:.2f} % of the "

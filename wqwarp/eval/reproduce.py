@@ -29,7 +29,6 @@ stage that fails is reported and the others go on; the page lists what is missin
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import datetime
 import glob
@@ -42,15 +41,13 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import TextIO
 
-from wqwarp.cli.args import ArgumentParser, repo_path
-from wqwarp.eval.report import config_profile, read_json, write_report
+from wqwarp.eval.report import config_task, read_json
 from wqwarp.eval.timeline import fig6_segments
-from wqwarp.rl.presets import PRESET_ORDER, PRESETS
-from wqwarp.rl.profiles import DEFAULT_PROFILE, PROFILES, profile_help
-from wqwarp.utils.io import open_text, write_text_atomic
+from wqwarp.rl.tasks import TASKS
+from wqwarp.utils.io import open_text, repo_path, write_text_atomic
 
 
 @dataclass(frozen=True)
@@ -208,19 +205,21 @@ IMPORTED = "imported.json"
 """Marker in a run folder whose training was done by an earlier reproduction and imported (``--import-from``)."""
 
 
-def import_mismatch(src: str, stem: str, budget: Budget, profile: str) -> str | None:
-    """Why the records of ``<stem>`` (``<preset>_s<seed>``) in the results folder ``src`` are not this budget's and
-    profile's (None when they are): robots, steps per robot and profile of the training, and the checkpoint
-    iteration every evaluation ran on (but a zero-residual record's: the nominal gait alone, which no checkpoint's
-    weights change)."""
+def import_mismatch(src: str, stem: str, budget: Budget) -> str | None:
+    """Why the records of ``<stem>`` (``<task>_s<seed>``) in the results folder ``src`` are not this budget's and
+    task's (None when they are): robots, steps per robot and task of the training (``config_task``: a run of the
+    former ``--profile select`` is its preset's task), and the checkpoint iteration every evaluation ran on (but a
+    zero-residual record's: the nominal gait alone, which no checkpoint's weights change)."""
     cfg = read_json(os.path.join(src, f"{stem}_train_config.json")) or {}
-    a = cfg.get("args") or {}
+    have = {"num_envs": (cfg.get("env") or {}).get("sim", {}).get("num_envs"),
+            "num_steps_per_env": (cfg.get("train") or {}).get("num_steps_per_env")}  # fmt: skip
     want = {"num_envs": budget.num_envs, "num_steps_per_env": budget.steps_per_env}
     for key, value in want.items():
-        if a.get(key) != value:
-            return f"trained with {key} {a.get(key)}, this budget has {value}"
-    if (trained := config_profile(cfg)) != profile:
-        return f"trained with profile {trained}, this reproduction uses {profile}"
+        if have[key] != value:
+            return f"trained with {key} {have[key]}, this budget has {value}"
+    task = stem.rsplit("_s", 1)[0]
+    if (trained := config_task(cfg)) != task:
+        return f"trained as {trained}, this reproduction's {task} is another recipe"
     evals = sorted(glob.glob(os.path.join(src, f"{stem}_*.json")))
     evals = [e for e in evals if not e.endswith(("_train_config.json", "_train_info.json"))]
     if not evals:
@@ -235,11 +234,11 @@ def import_mismatch(src: str, stem: str, budget: Budget, profile: str) -> str | 
     return None
 
 
-def import_finished(src: str, work: str, budget: Budget, profile: str, presets: list[str],
+def import_finished(src: str, work: str, budget: Budget, presets: list[str],
                     seeds: list[int]) -> list[str]:  # fmt: skip
     """Take the finished stages of an earlier reproduction from the results folder ``src`` that its report wrote
     (e.g. ``docs/results/cpu``) into ``work``, so that a reproduction longer than one machine session continues in
-    the next without the checkpoints: a preset and seed whose records match this budget and profile
+    the next without the checkpoints: a task and seed whose records match this budget and task
     (:func:`import_mismatch`) gets its evaluation JSONs and figures (those not already in ``work/eval``), its
     training configuration, log and summary, and the :data:`IMPORTED` marker that stands in for its final checkpoint.
     A run folder with checkpoints of its own is left alone. One line per preset and seed with records in ``src``."""
@@ -255,7 +254,7 @@ def import_finished(src: str, work: str, budget: Budget, profile: str, presets: 
             if checkpoints(d):
                 lines.append(f"not imported {stem}: {d} has checkpoints of its own")
                 continue
-            if why := import_mismatch(src, stem, budget, profile):
+            if why := import_mismatch(src, stem, budget):
                 lines.append(f"not imported {stem}: {why}")
                 continue
             os.makedirs(d, exist_ok=True)
@@ -293,17 +292,15 @@ def stage_train(args, budget: Budget, preset: str, seed: int) -> bool:
         return True
     d = run_dir(args.work, preset, seed)
     final = final_checkpoint(args.work, preset, seed, budget)
-    cmd = ["train/ppo_newton.py", "--preset", preset, "--profile", args.profile, "--seed", str(seed), "--num-envs",
+    cmd = ["train/ppo_newton.py", preset, "--seed", str(seed), "--num-envs",
            str(budget.num_envs), "--device", args.device, "--log-dir", d, "--no-export", "--num-steps-per-env",
            str(budget.steps_per_env), "--torch-threads", str(args.torch_threads)]  # fmt: skip
-    if PRESETS[preset].predictive:
+    if TASKS[preset].preset.predictive:
         cmd += ["--temperature-iterations", str(budget.temperature_iterations)]
+    cmd += ["--max-iterations", str(budget.iterations)]  # the total, also when resuming
     done = checkpoints(d)
-    if done:  # continue an interrupted run after its last checkpoint
-        it, path = done[-1]
-        cmd += ["--resume", path, "--max-iterations", str(budget.iterations - 1 - it)]
-    else:
-        cmd += ["--max-iterations", str(budget.iterations)]
+    if done:  # continue an interrupted run after its last checkpoint, with its configuration
+        cmd += ["--resume", done[-1][1]]
     cmd += ["--save-interval", str(max(1, min(50, budget.iterations // 4)))]
     t0, label, log = time.time(), f"train {preset} seed {seed}", d + ".log"
     with stage_log(log, label, " ".join(cmd), lambda: training_progress(d, budget.iterations)) as f:
@@ -318,7 +315,7 @@ def stage_eval(args, budget: Budget, preset: str, seed: int, name: str) -> bool:
     True when it is."""
     from wqwarp.eval.protocols import PROTOCOLS, equivalent_command, make_options, run_protocol
 
-    if name in PREDICTIVE_ONLY and not PRESETS[preset].selection_studies:
+    if name in PREDICTIVE_ONLY and not TASKS[preset].preset.selection_studies:
         return True
     proto = STAGE_PROTOCOL.get(name, name)
     out = os.path.join(args.work, "eval", f"{preset}_s{seed}_{name}")
@@ -332,7 +329,7 @@ def stage_eval(args, budget: Budget, preset: str, seed: int, name: str) -> bool:
         print(f"  skip {name} of {preset} seed {seed}: no trained checkpoint {ckpt}{imported}")
         return False
     opts = make_options(proto, checkpoint=ckpt, device=args.device, seed=seed, **outputs,
-                        **EVAL_STAGES[name](budget, preset))  # fmt: skip
+                        **EVAL_STAGES[name](budget, TASKS[preset].method))  # fmt: skip
     t0, label, log = time.time(), f"{name} {preset} seed {seed}", out + ".log"
     command = equivalent_command(proto, opts)
     with stage_log(log, label, command) as f:
@@ -343,103 +340,3 @@ def stage_eval(args, budget: Budget, preset: str, seed: int, name: str) -> bool:
             f.write(traceback.format_exc())
             ok = False
     return _report_status(label, ok, log, t0)
-
-
-def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    """The command line, with the budget's device, work and output folders filled in."""
-    p = ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
-                       formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
-    p.add_argument("--budget", choices=sorted(BUDGETS), default="smoke",
-                   help="smoke (minutes, plumbing only), cpu (~4 h on 2 cores: 128 robots x 4883 iterations = 15 M "
-                   "samples per preset, the default main job's; split it over sessions with --presets and "
-                   "--import-from), gpu "
-                   "(the paper's 4096 x 4000; use --device cuda:0). Default smoke")  # fmt: skip
-    p.add_argument("--profile", default=DEFAULT_PROFILE, choices=sorted(PROFILES),
-                   help=f"levers beyond the paper for every preset's training, as train/ppo_newton.py --profile "
-                        f"(default {DEFAULT_PROFILE}; {profile_help()})")  # fmt: skip
-    p.add_argument("--seeds", type=int, default=1, help="seeds 1..N per preset (default 1; bars show their spread)")
-    p.add_argument("--presets", default=",".join(PRESET_ORDER),
-                   help=f"comma-separated presets (default all five: {','.join(PRESET_ORDER)})")  # fmt: skip
-    p.add_argument("--stages", default=",".join(STAGES),
-                   help=f"comma-separated stages (default all: {','.join(STAGES)})")  # fmt: skip
-    p.add_argument("--out", default=None,
-                   help="folder for RESULTS.md, results.json and the figures (default: docs for the cpu and gpu "
-                   "budgets, <work>/report for smoke)")  # fmt: skip
-    p.add_argument("--work", default=None,
-                   help="folder for training runs and raw evaluation files (default runs/reproduce_<budget>_<profile>: "
-                   "a finished stage is never redone, so each profile has its own)")  # fmt: skip
-    p.add_argument("--import-from", default=None, metavar="DIR",
-                   help="results folder of an earlier reproduction at this budget and profile (e.g. docs/results/cpu, "
-                   "as its report wrote it): presets and seeds recorded there with this budget's robots, steps, "
-                   "final iteration and profile are taken as trained and evaluated instead of redone, so a "
-                   "reproduction longer than one session continues in the next without its checkpoints; records of "
-                   "another budget or profile are listed and left alone")  # fmt: skip
-    p.add_argument("--device", default=None, help="cpu or cuda:N (default: the budget's, cpu except gpu)")
-    p.add_argument("--torch-threads", type=int, default=1,
-                   help="torch CPU threads of each training process (default 1, as train/ppo_newton.py; physics uses "
-                   "all cores)")  # fmt: skip
-    args = p.parse_args(argv)
-    budget = BUDGETS[args.budget]
-    args.device = args.device or budget.device
-    args.work = args.work or repo_path("runs", f"reproduce_{args.budget}_{args.profile}")
-    args.out = args.out or (os.path.join(args.work, "report") if args.budget == "smoke" else repo_path("docs"))
-    return args
-
-
-def _device_problem(device: str) -> str | None:
-    if not device.startswith("cuda"):
-        return None
-    try:
-        import warp as wp
-
-        from wqwarp import quiet_warp
-
-        quiet_warp()
-        wp.get_device(device)
-    except Exception as e:  # noqa: BLE001
-        return f"device {device!r} is not available: {e}"
-    return None
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Run the chosen stages for every preset and seed; 0 when all are done, 1 when some failed, 2 for bad input."""
-    args = parse_args(argv)
-    budget = BUDGETS[args.budget]
-    presets = [x.strip() for x in args.presets.split(",") if x.strip()]
-    stages = [x.strip() for x in args.stages.split(",") if x.strip()]
-    bad = [x for x in presets if x not in PRESET_ORDER] + [x for x in stages if x not in STAGES]
-    if bad or not presets or not stages or args.seeds < 1 or args.torch_threads < 1:
-        print(f"error: unknown preset or stage {bad}, or --seeds / --torch-threads < 1 (presets: "
-              f"{', '.join(PRESET_ORDER)}; stages: {', '.join(STAGES)})", file=sys.stderr)  # fmt: skip
-        return 2
-    if problem := _device_problem(args.device):
-        print(f"error: {problem}", file=sys.stderr)
-        return 2
-    if args.import_from and not os.path.isdir(args.import_from):
-        print(f"error: --import-from {args.import_from}: no such folder", file=sys.stderr)
-        return 2
-    os.makedirs(args.work, exist_ok=True)
-    seeds = list(range(1, args.seeds + 1))
-    if args.import_from:
-        for line in import_finished(args.import_from, args.work, budget, args.profile, presets, seeds):
-            print(line)
-    write_text_atomic(os.path.join(args.work, "budget.json"),
-                      json.dumps({"budget": args.budget, **asdict(budget), "device": args.device,
-                                  "profile": args.profile}, indent=2))  # fmt: skip
-    t0 = time.time()
-    failed = []
-    for stage in [s for s in stages if s != "report"]:
-        for preset in presets:
-            for seed in seeds:
-                ok = stage_train(args, budget, preset, seed) if stage == "train" else \
-                    stage_eval(args, budget, preset, seed, stage)  # fmt: skip
-                if not ok:
-                    failed.append(f"{stage} {preset} seed {seed}")
-    if "report" in stages:
-        done = {(p, sd) for p in presets for sd in seeds if trained(args.work, p, sd, budget)}
-        write_report(args.work, args.out, args.budget, budget, presets, seeds, wall_s=time.time() - t0, trained=done)
-        print(f"wrote {os.path.join(args.out, 'RESULTS.md')}")
-    if failed:
-        print("not done: " + "; ".join(failed), file=sys.stderr)
-        return 1
-    return 0

@@ -112,7 +112,7 @@ class TimelineOptions(SelectionOptions):
     preset: str | None = option(None, help="preset of the checkpoint (default: from its run's config.json)")
     segments: str = option(DEFAULT_SEGMENTS, help=f"command segments (default {DEFAULT_SEGMENTS!r})")
     robots: int = option(8, help="robots run side by side (default 8; robot 0 is drawn)")
-    png: str | None = option(None, help="draw the figure here (matplotlib)", type=str, output=True)
+    png: str | None = option(None, help="draw the figure here (matplotlib)", output=True)
 
     def validate(self) -> None:
         try:

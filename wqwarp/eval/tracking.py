@@ -119,8 +119,8 @@ class TrackingOptions(SelectionOptions):
                                 "checkpoint was trained as (default: the preset in the run's config.json). The "
                                 "environment is always built from the configuration stored in the checkpoint")
     tasks: str = option("vx,vy,wz", help=f"comma-separated tasks from {', '.join(TASKS)} (default vx,vy,wz)")
-    num_envs: int | None = option(None, help="robots per task (default 100; the paper uses 1000)", type=int)
-    seconds: float | None = option(None, help="length of each rollout [s] (default 20; 60 push)", type=float)
+    num_envs: int | None = option(None, help="robots per task (default 100; the paper uses 1000)")
+    seconds: float | None = option(None, help="length of each rollout [s] (default 20; 60 push)")
     paper_scale: bool = option(False, help="the paper's scale: 1000 robots and 60 s per task (unless --num-envs / "
                                "--seconds say otherwise); about 30x the default's cost")  # fmt: skip
     push: float = option(0.0, help="max push velocity [m/s]; 0 disables pushes (default)")
@@ -128,7 +128,7 @@ class TrackingOptions(SelectionOptions):
     push_levels: str = option("0.5,0.7", help="push protocol: comma-separated max push velocities [m/s]")
     physics: str = option("", help="sim-to-sim: comma-separated physics to evaluate after the training physics, from "
                           f"{', '.join(SIM2SIM_CHOICES)}; deltas against the training physics are printed")  # fmt: skip
-    dt: float | None = option(None, type=float, help="physics step [s] (default: the training value 0.005); the "
+    dt: float | None = option(None, help="physics step [s] (default: the training value 0.005); the "
                               "policy keeps its 50 Hz step, e.g. --dt 0.001 checks that a power figure is not an "
                               "artefact of the time step (the paper trains at 0.001)")  # fmt: skip
     sample_gaits: bool = option(False, help="predictive presets: sample gaits from softmax(-p/tau) at the "

@@ -2,7 +2,7 @@
 ``wqwarp.rl.presets``).
 
 Every field carries its unit and source, in the docstring under it (which is also its ``--help`` on the command
-line, ``wqwarp.cli.config_args``). Code reads behaviour fields (``action.use_nominal_legs``, ``gait.selection``,
+line through tyro, ``wqwarp.cli.train_args``). Code reads behaviour fields (``action.use_nominal_legs``, ``gait.selection``,
 ...), never a preset's name. Choices are ``Literal`` types, checked when set; each section checks its numbers when
 built (``wqwarp.utils.checked_config``). No physics engine and no torch are imported here.
 """
@@ -12,7 +12,9 @@ from __future__ import annotations
 import dataclasses
 import typing
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Annotated, Literal
+
+from typing_extensions import Doc
 
 from wqwarp.control.gaits import TABLE_I, Gait, load_tuned_gait, with_gait
 from wqwarp.rl.rewards import REWARD_TERMS, TERMS, RewardTerm  # noqa: F401  (REWARD_TERMS: re-exported)
@@ -56,9 +58,15 @@ def _ramp_scale(self, iteration: int, start: int | None = None) -> float:
     return min(1.0, max(0.0, done / self.ramp_iterations))
 
 
+def _documented(fields: list[tuple[str, type, dataclasses.Field]]) -> list[tuple[str, object, dataclasses.Field]]:
+    """Each generated field's type as ``Annotated[type, Doc(its metadata's doc)]``: the PEP 727 form of a field
+    docstring, which the command line (tyro) shows as the option's help; type hints without extras are unchanged."""
+    return [(n, Annotated[t, Doc(f.metadata["doc"])] if "doc" in f.metadata else t, f) for n, t, f in fields]
+
+
 RewardConfig = dataclasses.make_dataclass(
     "RewardConfig",
-    [(t.name, float, field(default=t.weight, metadata=migrate(t.migration.value, t.migration.why, doc=t.doc)
+    _documented([(t.name, float, field(default=t.weight, metadata=migrate(t.migration.value, t.migration.why, doc=t.doc)
                            if t.migration else {"doc": t.doc})) for t in TERMS]
     + [("tracking_sigma", float, field(default=4.0, metadata={"doc": "The 4 in exp(-4 err^2) [1/(m/s)^2]."})),
        ("only_positive", bool, field(default=False, metadata=migrate(
@@ -89,7 +97,7 @@ RewardConfig = dataclasses.make_dataclass(
            "rank gates on its own robots.")))),
        ("ramp_gate_window", int, field(default=100, metadata=since_default(
            "its default (unused without the gate)", doc=(
-           "PPO iterations averaged by the ramp_gate_vy_error gate."))))],
+           "PPO iterations averaged by the ramp_gate_vy_error gate."))))]),
     namespace={"weights": _reward_weights, "ramp_scale": _ramp_scale, "__module__": __name__},
 )
 RewardConfig.__doc__ = """Weights of the paper's Table II (and of the terms beyond it, 0 by default), one field per

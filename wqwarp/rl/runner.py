@@ -34,6 +34,9 @@ class WqRunner(OnPolicyRunner):
 
     env: WheeledGo1Env
     alg: WqPPO
+    train_config: dict | None = None
+    """The run's ``TrainConfig`` as a dict (``to_dict``), stored in every checkpoint as ``infos['train_cfg']`` when
+    set, so that ``--resume`` continues with the PPO settings the run had."""
 
     def __init__(self, env: WheeledGo1Env, train_cfg: dict, log_dir: str | None = None, device: str = "cpu"):
         super().__init__(env, train_cfg, log_dir=log_dir, device=device)
@@ -105,6 +108,7 @@ class WqRunner(OnPolicyRunner):
             "obs_layout": env.obs_layout,
             "num_actions": env.num_actions,
             "env_cfg": to_dict(env.cfg),
+            **({"train_cfg": self.train_config} if self.train_config is not None else {}),
             "rng": {"torch": torch.get_rng_state(), "env": env.gen.get_state(),
                     **({"cuda": torch.cuda.get_rng_state(env.device)} if env.device.startswith("cuda") else {})},
         }  # fmt: skip

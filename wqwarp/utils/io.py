@@ -107,3 +107,10 @@ def output_problem(path: str) -> str | None:
         return f"its directory {folder} does not exist"
     problem = directory_problem(folder)
     return f"its directory {problem}" if problem else None
+
+
+def repo_path(*parts: str) -> str:
+    """Absolute path of ``parts`` inside the checkout holding this package (default result paths such as
+    ``repo_path("docs", "studies", "x", "x.json")`` do not depend on the working directory)."""
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    return os.path.join(root, *parts)

@@ -1,0 +1,185 @@
+"""The task registry: one entry per training recipe, as mjlab, Isaac Lab and legged_gym register one task id per
+variant. A task carries a method of the paper (``wqwarp.rl.presets``), the settings beyond the paper it is trained
+with, and the PPO budget, so that one id is the whole recipe:
+
+    <method>        the best-measured recipe here for that method (``ours`` is the default of
+                    ``python train/ppo_newton.py``): the paper's method with the :data:`RECIPE_LEVERS` that apply to
+                    it, 128 robots x 4883 iterations x 24 steps = 15.0 M samples
+    <method>-paper  the method as the paper writes it (no lever), at the same budget
+
+The methods are ``ours``, ``no_predictor``, ``no_wheel_vel``, ``pmtg`` and ``baseline``. Every lever has the study
+that measured it; a lever that a method cannot use (the gait's lateral feed-forward for the baseline without a
+nominal gait) is not set, so that method keeps the paper's value. The checkpoint and ``config.json`` store the
+resolved configuration, so evaluation and ``--resume`` need no task. No physics is imported here.
+
+Adding a task: one :class:`Task` in :data:`TASKS` (a method, its levers, its budget).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from wqwarp.rl.config import EnvConfig, TrainConfig
+from wqwarp.rl.presets import PRESETS, make_preset
+
+
+def _nominal_legs(cfg: EnvConfig) -> bool:
+    return cfg.action.use_nominal_legs
+
+
+def _predictive(cfg: EnvConfig) -> bool:
+    return cfg.gait.selection == "predictive"
+
+
+def _every(cfg: EnvConfig) -> bool:
+    return True
+
+
+@dataclass(frozen=True)
+class Lever:
+    """One setting of a recipe beyond the paper."""
+
+    path: str
+    """Dotted path in the run's config roots (``env.gait.lateral_gain``, ``train.init_noise_std_groups``)."""
+    value: object
+    applies: Callable[[EnvConfig], bool]
+    """Whether the method (its preset's config) can use this setting."""
+    why: str
+    """What it did where it was measured (one line; the study has the tables)."""
+    study: str
+    """The study folder under ``docs/studies/`` that measured it."""
+
+
+RECIPE_LEVERS: tuple[Lever, ...] = (
+    Lever("env.gait.lateral_gain", 0.35, _nominal_legs,
+          "lateral foot-y stroke A = 0.35 s x v_y command (clip 0.12 m): v_y MSE 0.168 -> 0.062 (fixed trot, 12.3 M)",
+          "omnidirectional"),
+    Lever("env.predictor.label_source", "mean", _predictive,
+          "labels from robots acting with the mean action: forecasts 0.8-1.2x the realised p_cost (paper's: 1.9-2.8x)",
+          "omnidirectional"),
+    Lever("env.predictor.label_fraction", 0.03125, _predictive,
+          "4 of 128 robots label (1/8: both seeds took the noise-escape posture, v_y lost)", "omnidirectional"),
+    Lever("env.predictor.kinematic_yaw_limit", 0.2, _predictive,
+          "driving is no candidate for |w| > 0.2 rad/s: w tracked on both seeds, in legged gaits (10, driving a "
+          "candidate for every turn: w -34/-39 % power at 1.8/2.0x MSE, the other tasks worse)", "omnidirectional"),
+    Lever("train.init_noise_std_groups", (0.5, 0.25, 0.5), _nominal_legs,
+          "initial foot std 0.25 (phase, wheels 0.5): 0 of 6 runs took the noise-escape posture, 2 of 4 without",
+          "omnidirectional"),
+    Lever("env.sim.wheel_ki", 0.0, _every,
+          "P-only wheels (the authors' harness's law): the wheel integrals wound up against each other (front push, "
+          "rear brake); -59 to -65 % power on v_x, two seeds", "residual_energy"),
+    Lever("env.predictor.criterion", "kinematic_feasible", _predictive,
+          "among the gaits the kinematic mask leaves, those predicted to track: v_y MSE 0.020 / 0.012 against "
+          "0.049 / 0.070 with the kinematic rule (two seeds, 15 M)", "feasible_selection"),
+    Lever("env.predictor.label_command_cut", True, _predictive,
+          "predictor windows that straddle a command resample are dropped: the tracking head's argmin is the best "
+          "tracker in 49 / 46 of 50 energy-map cells (uncut 40 / 21); standing and v_x driven 96-99 %",
+          "feasible_selection"),
+)  # fmt: skip
+"""The settings beyond the paper of every ``<method>`` task, in the order they were adopted (the levers of the
+former ``--profile select``: issue 21's omnidirectional levers, issue 22's P-only wheels and feasibility-aware
+selection). The cpu reproduction of docs/RESULTS.md ran under exactly these."""
+
+BUDGET: dict[str, object] = {"env.sim.num_envs": 128, "train.max_iterations": 4883}
+"""The training budget of every task: 128 robots x 24 steps x 4883 iterations = 15.0 M samples, where the
+omnidirectional skill held on a 2-core CPU (the paper: 4096 robots x 4000 iterations; ``--num-envs 4096
+--max-iterations 4000`` on a GPU)."""
+
+
+def set_path(roots: dict[str, object], path: str, value: object) -> None:
+    """Set the field at dotted ``path`` of the tree its first part names (``roots["env"]`` for ``env.sim.dt``)."""
+    head, *mid, leaf = path.split(".")
+    node = roots[head]
+    for part in mid:
+        node = getattr(node, part)
+    setattr(node, leaf, value)
+
+
+def get_path(roots: dict[str, object], path: str) -> object:
+    """The field at dotted ``path`` of the tree its first part names."""
+    head, *rest = path.split(".")
+    node = roots[head]
+    for part in rest:
+        node = getattr(node, part)
+    return node
+
+
+@dataclass(frozen=True)
+class Task:
+    """One training recipe: a method of the paper, the levers beyond it, the budget."""
+
+    name: str
+    """The task id (``ours``, ``ours-paper``): the command's first argument, result file names."""
+    method: str
+    """The paper's method (``wqwarp.rl.presets.PRESETS``)."""
+    summary: str
+    """One line for ``--help``."""
+    levers: tuple[Lever, ...] = ()
+
+    @property
+    def preset(self):
+        """The method's :class:`~wqwarp.rl.presets.Preset` (paper label, selector, reproduction stages)."""
+        return PRESETS[self.method]
+
+    @property
+    def paper_label(self) -> str:
+        """The method's name in the paper's tables."""
+        return self.preset.paper_label
+
+    def overrides(self) -> dict[str, object]:
+        """Dotted path -> value of this task over the method's config: the levers that apply, then the budget."""
+        env = make_preset(self.method)
+        return {**{lv.path: lv.value for lv in self.levers if lv.applies(env)}, **BUDGET}
+
+    def make(self) -> tuple[EnvConfig, TrainConfig]:
+        """Fresh configs of this task (nothing shared is mutated)."""
+        roots: dict[str, object] = {"env": make_preset(self.method), "train": TrainConfig()}
+        for path, value in self.overrides().items():
+            set_path(roots, path, value)
+        return roots["env"], roots["train"]
+
+
+def _tasks() -> dict[str, Task]:
+    tasks: dict[str, Task] = {}
+    for name, preset in PRESETS.items():
+        tasks[name] = Task(name, name, f"{preset.summary}, with the measured levers (recommended)", RECIPE_LEVERS)
+        tasks[f"{name}-paper"] = Task(f"{name}-paper", name, f"{preset.summary}, as the paper writes it")
+    return tasks
+
+
+TASKS: dict[str, Task] = _tasks()
+"""Task id -> :class:`Task`: each method's recipe, then its paper variant, in the paper's method order."""
+DEFAULT_TASK = "ours"
+"""The task of ``python train/ppo_newton.py`` with no task id."""
+
+
+def task(name: str) -> Task:
+    """The task ``name``; ValueError naming the known ids otherwise."""
+    if name not in TASKS:
+        raise ValueError(f"unknown task {name!r}; tasks: {', '.join(TASKS)}")
+    return TASKS[name]
+
+
+def task_help() -> str:
+    """One line per task (``  ours          predictive ...``) for ``--help``."""
+    width = max(map(len, TASKS))
+    return "\n".join(f"  {t.name:<{width}}  {t.summary}" for t in TASKS.values())
+
+
+def infer_task(env: EnvConfig, train: TrainConfig | None = None) -> str | None:
+    """The task whose recipe a configuration was built from (its method and every lever field equal to the task's),
+    ignoring the budget and any other field; None if none fits (a configuration made by hand)."""
+    from wqwarp.rl.presets import infer_preset
+
+    method = infer_preset(env)
+    if method is None:
+        return None
+    roots = {"env": env, "train": train if train is not None else TrainConfig()}
+    paths = [lv.path for lv in RECIPE_LEVERS if train is not None or lv.path.startswith("env.")]
+    for name in (method, f"{method}-paper"):
+        ref_env, ref_train = TASKS[name].make()
+        ref = {"env": ref_env, "train": ref_train}
+        if all(get_path(roots, p) == get_path(ref, p) for p in paths):
+            return name
+    return None
