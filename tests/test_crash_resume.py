@@ -48,12 +48,13 @@ def test_sigkill_between_checkpoints_loses_at_most_one_interval_and_resumes(tmp_
     for k in ckpts:  # every checkpoint is whole (written to a temporary file, then renamed)
         ckpt = torch.load(log / f"model_{k}.pt", weights_only=False)
         assert ckpt["iter"] == k and "estimator_state_dict" in ckpt and "rng" in ckpt["infos"]
-    assert json.loads((log / "config.json").read_text())["args"]["save_interval"] == 3
+    assert json.loads((log / "config.json").read_text())["train"]["save_interval"] == 3
     last = ckpts[-1]
     assert _iterations_logged(log) - 1 - last <= 3  # at most one checkpoint interval of work lost
 
-    r = subprocess.run([sys.executable, TRAIN, "--max-iterations", "2", "--resume", str(log / f"model_{last}.pt"),
-                        *args], cwd=ROOT, capture_output=True, text=True, timeout=600)  # fmt: skip
+    r = subprocess.run([sys.executable, TRAIN, "--max-iterations", str(last + 3), "--resume",  # the new total
+                        str(log / f"model_{last}.pt"), *args], cwd=ROOT, capture_output=True, text=True,
+                       timeout=600)  # fmt: skip
     assert r.returncode == 0, r.stderr[-2000:]
     assert torch.load(log / f"model_{last + 2}.pt", weights_only=False)["iter"] == last + 2
 

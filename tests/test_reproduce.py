@@ -3,6 +3,7 @@ evaluation's, and a re-run continues instead of redoing."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 
@@ -102,7 +103,7 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     (res / "ours-paper_s1_train_config.json").write_text(json.dumps(legacy))  # before the registry: select = ours
     assert "trained as ours," in reproduce.import_mismatch(str(res), "ours-paper_s1", budget)
     (res / "ours-paper_s1_train_config.json").unlink()
-    longer = reproduce.Budget(**{**reproduce.asdict(budget), "iterations": 5})
+    longer = dataclasses.replace(budget, iterations=5)
     assert "final is 4" in reproduce.import_mismatch(str(res), "ours_s1", longer)
     nominal = _load(res / "ours_s1_nominal.json")  # the nominal gait alone holds for any checkpoint of its config
     (res / "ours_s1_nominal.json").write_text(json.dumps({**nominal, "iteration": 0}))
@@ -228,7 +229,7 @@ def test_import_restores_the_training_log_the_report_committed_gzipped(tmp_path,
         else:
             (src / log).write_text(f"{stem} progress\n")
     budget = reproduce.BUDGETS["smoke"]
-    lines = reproduce.import_finished(str(src), str(work), budget, "omni", ["ours", "pmtg"], [1])
+    lines = reproduce.import_finished(str(src), str(work), budget, ["ours", "pmtg"], [1])
     assert lines == ["imported ours_s1 from " + str(src) + ": 2 file(s)", "imported pmtg_s1 from " + str(src)
                      + ": 2 file(s)"]  # fmt: skip
     for stem in ("ours_s1", "pmtg_s1"):

@@ -237,7 +237,7 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
     for name in copied:
         if name.endswith(".json"):
             eval_s += float(read_json(os.path.join(res_dir, name)).get("wall_time_s") or 0.0)
-    trained_as = sorted({x for p in tasks for sd in seeds if (x := run_task(work, p, sd))})
+    trained_as = list(dict.fromkeys(x for p in tasks for sd in seeds if (x := run_task(work, p, sd))))
     training = {method_of(t): per_seed for t, per_seed in training.items()}
     summary = {"budget": budget_name, "sizes": asdict(budget), "presets": presets, "tasks": tasks, "seeds": seeds,
                "trained_as": trained_as, "wall_time_s": wall_s, "evaluation_wall_time_s": eval_s, "training": training,
