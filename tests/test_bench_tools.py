@@ -28,7 +28,7 @@ def test_bench_train_json_rates_and_breakdown(tmp_path):
     assert all(v >= -1e-3 for v in r["breakdown_s"].values())
 
 
-@pytest.mark.parametrize("argv", [["--sizes", "0"], ["--sizes", "a"], ["--threads", "0"], ["--preset", "nope"],
+@pytest.mark.parametrize("argv", [["--sizes", "0"], ["--sizes", "a"], ["--threads", "0"], ["--task", "nope"],
                                   ["--json", "/no/such/dir/x.json"]])  # fmt: skip
 def test_bench_train_bad_input_exits_2(argv, capsys):
     assert bench_train.main(argv) == 2

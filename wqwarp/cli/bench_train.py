@@ -2,7 +2,7 @@
 
 Usage::
 
-    python tools/bench_train.py [--sizes 128,256,512] [--preset ours] [--iterations 6] [--device cpu]
+    python tools/bench_train.py [--sizes 128,256,512] [--task ours] [--iterations 6] [--device cpu]
                                 [--threads N | --torch-threads T --physics-threads P] [--busy K] [--json PATH]
 
 For each robot count N (all in robot-policy-steps per second, one policy step = ``decimation`` physics substeps):
@@ -180,10 +180,10 @@ def bench(n: int, args, threads: dict) -> dict:
 
     from wqwarp.rl.config import TrainConfig
     from wqwarp.rl.env import WheeledGo1Env
-    from wqwarp.rl.presets import make_preset
     from wqwarp.rl.runner import WqRunner
+    from wqwarp.rl.tasks import TASKS
 
-    cfg = make_preset(args.preset)
+    cfg, _ = TASKS[args.task].make()
     cfg.sim.num_envs = n
     cfg.sim.device = args.device
     cfg.sim.nthread = threads["physics"]
@@ -263,7 +263,8 @@ def bench(n: int, args, threads: dict) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = doc_parser(__doc__)
     add_bench_options(ap, "128,256,512")
-    ap.add_argument("--preset", default="ours", help="method preset (default ours: the most work per step)")
+    ap.add_argument("--task", default="ours", help="training task whose configuration is timed (wqwarp/rl/tasks.py; "
+                    "default ours: the most work per step)")
     ap.add_argument("--iterations", type=int, default=6, help="timed training iterations per N (default 6)")
     ap.add_argument("--steps-per-env", type=int, default=24, help="rollout length per iteration (default 24)")
     ap.add_argument("--seconds", type=float, default=3.0,
@@ -284,10 +285,10 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"--{name.replace('_', '-')} must be >= 1, got {v}")
     if args.busy < 0 or args.seconds <= 0:
         raise UsageError("--busy must be >= 0 and --seconds > 0")
-    from wqwarp.rl.presets import PRESETS
+    from wqwarp.rl.tasks import TASKS
 
-    if args.preset not in PRESETS:
-        raise UsageError(f"unknown --preset {args.preset!r}; choose one of {', '.join(sorted(PRESETS))}")
+    if args.task not in TASKS:
+        raise UsageError(f"unknown --task {args.task!r}; choose one of {', '.join(TASKS)}")
     import warp as wp
 
     from wqwarp import quiet_warp
@@ -305,7 +306,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as e:
         raise UsageError(f"--{e}") from None
     desc = device_description(dev)
-    print(f"device: {desc}; preset {args.preset}; threads torch {threads['torch']} update {threads['update']} "
+    print(f"device: {desc}; task {args.task}; threads torch {threads['torch']} update {threads['update']} "
           f"physics {threads['physics']}; "
           f"{args.busy} busy core(s)", flush=True)  # fmt: skip
     print(f"{'N':>6} {'sim st/s':>10} {'collect st/s':>13} {'train st/s':>11} {'train/sim':>9}  slowest stages",
@@ -320,7 +321,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{n:>6} {r['sim_steps_per_s']:>10.0f} {r['collect_steps_per_s']:>13.0f} "
                   f"{r['train_steps_per_s']:>11.0f} {r['train_vs_sim']:>9.2f}  {stages}", flush=True)  # fmt: skip
     if args.json:
-        out = {"device": desc, "preset": args.preset, "threads": threads, "busy_cores": args.busy,
+        out = {"device": desc, "task": args.task, "threads": threads, "busy_cores": args.busy,
                "iterations": args.iterations, "steps_per_env": args.steps_per_env, "seed": args.seed,
                "results": results}  # fmt: skip
         provenance.write_result_json(args.json, out)

@@ -33,11 +33,17 @@ class PolicyRunner:
 
 
 def checkpoint_preset(path: str) -> str | None:
-    """The preset recorded next to a checkpoint (``config.json`` of its run), if any."""
+    """The preset (method) recorded next to a checkpoint (``config.json`` of its run: its task's method, or the
+    ``--preset`` of a run written before the task registry), if any."""
+    from wqwarp.rl.tasks import TASKS
+
     cfg = os.path.join(os.path.dirname(os.path.abspath(path)), "config.json")
     if os.path.isfile(cfg):
         with open(cfg, encoding="utf-8") as f:
-            return json.load(f).get("args", {}).get("preset")
+            record = json.load(f)
+        if record.get("task") in TASKS:
+            return TASKS[record["task"]].method
+        return record.get("args", {}).get("preset")
     return None
 
 
