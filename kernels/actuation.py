@@ -85,8 +85,9 @@ class ActuationGains:
     """Physics substep [s]."""
 
 
-def actuation_gains(*, leg_kp: float, leg_kd: float, wheel_kp: float, wheel_ki: float, wheel_kd: float,
-                    wheel_i_limit: float, dt: float) -> ActuationGains:  # fmt: skip
+def actuation_gains(
+    *, leg_kp: float, leg_kd: float, wheel_kp: float, wheel_ki: float, wheel_kd: float, wheel_i_limit: float, dt: float
+) -> ActuationGains:
     """An :class:`ActuationGains` from its fields (units there)."""
     g = ActuationGains()
     g.leg_kp, g.leg_kd, g.wheel_kp, g.wheel_ki = leg_kp, leg_kd, wheel_kp, wheel_ki
@@ -128,9 +129,18 @@ def apply_actuation(
             ctrl = leg_pd_torque(leg_q_target[world, j], q, qd, gains.leg_kp, gains.leg_kd, limit)
         else:
             k = j - NUM_LEG_JOINTS
-            pid = wheel_pid_torque(wheel_qd_target[world, k], qd, wheel_integral_in[world, k],
-                                   wheel_prev_error_in[world, k], gains.wheel_kp, gains.wheel_ki, gains.wheel_kd,
-                                   gains.wheel_i_limit, limit, gains.dt)  # fmt: skip
+            pid = wheel_pid_torque(
+                wheel_qd_target[world, k],
+                qd,
+                wheel_integral_in[world, k],
+                wheel_prev_error_in[world, k],
+                gains.wheel_kp,
+                gains.wheel_ki,
+                gains.wheel_kd,
+                gains.wheel_i_limit,
+                limit,
+                gains.dt,
+            )
             ctrl = pid[0]
             wheel_integral_out[world, k] = pid[1]
             wheel_prev_error_out[world, k] = pid[2]
@@ -205,19 +215,37 @@ def launch_actuation(
         device: Warp device to launch on (default: the arrays' device).
         record_cmd: return the prepared launch instead of running it (replay it with ``.launch()``).
     """
-    gains = actuation_gains(leg_kp=leg_kp, leg_kd=leg_kd, wheel_kp=wheel_kp, wheel_ki=wheel_ki, wheel_kd=wheel_kd,
-                            wheel_i_limit=wheel_i_limit, dt=dt)  # fmt: skip
+    gains = actuation_gains(
+        leg_kp=leg_kp,
+        leg_kd=leg_kd,
+        wheel_kp=wheel_kp,
+        wheel_ki=wheel_ki,
+        wheel_kd=wheel_kd,
+        wheel_i_limit=wheel_i_limit,
+        dt=dt,
+    )
     i_out = wheel_integral if wheel_integral_out is None else wheel_integral_out
     e_out = wheel_prev_error if wheel_prev_error_out is None else wheel_prev_error_out
     return wp.launch(
         apply_actuation,
         dim=joint_q.shape[0],
-        inputs=[joint_q, joint_qd, coord_index, dof_index, leg_q_target, wheel_qd_target, gains, torque_limit,
-                motor_strength, wheel_integral, wheel_prev_error],
+        inputs=[
+            joint_q,
+            joint_qd,
+            coord_index,
+            dof_index,
+            leg_q_target,
+            wheel_qd_target,
+            gains,
+            torque_limit,
+            motor_strength,
+            wheel_integral,
+            wheel_prev_error,
+        ],
         outputs=[i_out, e_out, joint_torque, joint_f],
         record_cmd=record_cmd,
         device=device or joint_q.device,
-    )  # fmt: skip
+    )
 
 
 def launch_reset_wheel_pid(env_ids: wp.array, wheel_integral: wp.array, wheel_prev_error: wp.array, device=None):

@@ -167,8 +167,13 @@ def compute_leg_ik(target: wp.array2d, joint_q: wp.array2d | None = None, point=
     world_count = target.shape[0]
     if joint_q is None:
         joint_q = wp.zeros((world_count, constants.NUM_LEG_JOINTS), dtype=float, device=target.device)
-    wp.launch(eval_leg_ik, dim=(world_count, constants.NUM_LEGS), inputs=[target, wp.vec3(*point)],
-              outputs=[joint_q], device=target.device)  # fmt: skip
+    wp.launch(
+        eval_leg_ik,
+        dim=(world_count, constants.NUM_LEGS),
+        inputs=[target, wp.vec3(*point)],
+        outputs=[joint_q],
+        device=target.device,
+    )
     return joint_q
 
 
@@ -186,8 +191,13 @@ def compute_leg_fk(joint_q: wp.array2d, pos: wp.array2d | None = None, point=con
     world_count = joint_q.shape[0]
     if pos is None:
         pos = wp.zeros((world_count, constants.NUM_LEGS), dtype=wp.vec3, device=joint_q.device)
-    wp.launch(eval_leg_fk, dim=(world_count, constants.NUM_LEGS), inputs=[joint_q, wp.vec3(*point)], outputs=[pos],
-              device=joint_q.device)  # fmt: skip
+    wp.launch(
+        eval_leg_fk,
+        dim=(world_count, constants.NUM_LEGS),
+        inputs=[joint_q, wp.vec3(*point)],
+        outputs=[pos],
+        device=joint_q.device,
+    )
     return pos
 
 

@@ -112,9 +112,18 @@ def accumulate_power(
 
 
 POWER_OUTPUTS = (
-    "p_cost", "p_mech", "p_joule", "p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs",
-    "p_joule_wheels", "torque_sq", "power_sq",
-)  # fmt: skip
+    "p_cost",
+    "p_mech",
+    "p_joule",
+    "p_cost_legs",
+    "p_cost_wheels",
+    "p_mech_legs",
+    "p_mech_wheels",
+    "p_joule_legs",
+    "p_joule_wheels",
+    "torque_sq",
+    "power_sq",
+)
 """Names of :func:`accumulate_power`'s outputs, in order; each is a (W,) float32 array."""
 
 

@@ -136,8 +136,13 @@ def compute_base_frame(
     base_yaw[i] = heading_yaw(q)
 
 
-BASE_FRAME_OUTPUTS = (("base_lin_vel", 3), ("base_ang_vel", 3), ("projected_gravity", 3), ("base_height", 0),
-                      ("base_yaw", 0))  # fmt: skip
+BASE_FRAME_OUTPUTS = (
+    ("base_lin_vel", 3),
+    ("base_ang_vel", 3),
+    ("projected_gravity", 3),
+    ("base_height", 0),
+    ("base_yaw", 0),
+)
 """Names of :func:`compute_base_frame`'s outputs in order, with their width (0: a (N,) array)."""
 
 

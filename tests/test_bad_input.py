@@ -53,8 +53,20 @@ def bad_files(tmp_path_factory, save_checkpoint):
 @pytest.mark.parametrize("name", ["truncated.pt", "foreign.pt", "noise.pt"])
 def test_resume_from_a_broken_checkpoint(bad_files, name, tmp_path):
     main = _script("train/ppo_newton.py").main
-    code, err = _exit_code(main, ["--num-envs", "4", "--max-iterations", "1", "--resume", str(bad_files / name),
-                                  "--log-dir", str(tmp_path / "run"), "--no-export"])  # fmt: skip
+    code, err = _exit_code(
+        main,
+        [
+            "--num-envs",
+            "4",
+            "--max-iterations",
+            "1",
+            "--resume",
+            str(bad_files / name),
+            "--log-dir",
+            str(tmp_path / "run"),
+            "--no-export",
+        ],
+    )
     assert code == 2 and err.count("\n") == 1 and name in err, err
     assert not (tmp_path / "run").exists()  # refused before anything is written
 
@@ -64,8 +76,21 @@ def test_evaluate_a_broken_checkpoint(bad_files, name, tmp_path):
     main = _script("train/evaluate.py").main
     out = tmp_path / "eval.json"
     out.write_text("previous results")
-    code, err = _exit_code(main, ["--checkpoint", str(bad_files / name), "--tasks", "vx", "--num-envs", "2",
-                                  "--seconds", "3", "--json", str(out)])  # fmt: skip
+    code, err = _exit_code(
+        main,
+        [
+            "--checkpoint",
+            str(bad_files / name),
+            "--tasks",
+            "vx",
+            "--num-envs",
+            "2",
+            "--seconds",
+            "3",
+            "--json",
+            str(out),
+        ],
+    )
     assert code == 2 and err.strip().startswith("error:") and err.count("\n") == 1 and name in err, err
     assert out.read_text() == "previous results"  # nothing existing overwritten
     assert sorted(os.listdir(tmp_path)) == ["eval.json"]  # and no partial file
@@ -82,8 +107,9 @@ def test_a_missing_or_broken_robot_asset(bad_files, asset, tmp_path, monkeypatch
 
 def test_an_unwritable_log_dir(bad_files):
     main = _script("train/ppo_newton.py").main
-    code, err = _exit_code(main, ["--num-envs", "4", "--max-iterations", "1",
-                                  "--log-dir", str(bad_files / "a_file" / "run")])  # fmt: skip
+    code, err = _exit_code(
+        main, ["--num-envs", "4", "--max-iterations", "1", "--log-dir", str(bad_files / "a_file" / "run")]
+    )
     assert code == 2 and "cannot be written" in err and err.count("\n") == 1, err
     code, err = _exit_code(main, ["--num-envs", "4", "--max-iterations", "1", "--log-dir", str(bad_files / "a_file")])
     assert code == 2 and "is a file" in err, err
@@ -95,14 +121,19 @@ def test_export_usd_to_an_unwritable_place_and_from_a_broken_checkpoint(bad_file
     code, err = _exit_code(main, ["--out", str(bad_files / "a_file" / "x.usda"), "--num-envs", "1", "--seconds", "0.1"])
     assert code == 2 and err.strip().startswith("error:"), err
     out = tmp_path / "roll.usda"
-    code, err = _exit_code(main, ["--checkpoint", str(bad_files / "truncated.pt"), "--out", str(out), "--num-envs", "1",
-                                  "--seconds", "0.1"])  # fmt: skip
+    code, err = _exit_code(
+        main,
+        ["--checkpoint", str(bad_files / "truncated.pt"), "--out", str(out), "--num-envs", "1", "--seconds", "0.1"],
+    )
     assert code == 2 and "truncated.pt" in err and not out.exists(), err
 
 
-SCRIPTS = sorted(f"{folder}/{f}" for folder in ("train", "tools", "tools/studies")
-                 for f in os.listdir(os.path.join(ROOT, folder))
-                 if f.endswith(".py") and f != "__init__.py")  # fmt: skip
+SCRIPTS = sorted(
+    f"{folder}/{f}"
+    for folder in ("train", "tools", "tools/studies")
+    for f in os.listdir(os.path.join(ROOT, folder))
+    if f.endswith(".py") and f != "__init__.py"
+)
 
 
 @pytest.mark.parametrize("script", SCRIPTS)
@@ -113,22 +144,25 @@ def test_every_entry_point_reports_a_usage_error_in_one_line(script):
     assert err.count("\n") == 1 and "error:" in err and ("--no-such-option" in err or "required" in err), err
 
 
-USAGE_ERRORS = [("tools/bench.py", ["--sizes", "0"], "--sizes"),
-                ("tools/energy_audit.py", ["--seconds", "0"], "--seconds"),
-                ("tools/export_usd.py", ["--out", "x.usda", "--num-envs", "0"], "--num-envs"),
-                ("tools/gait_report.py", ["no_such_run"], "no such run directory"),
-                ("tools/plot_learning_curve.py", ["no_such_run", "--out", "x.png"], "no such run directory"),
-                ("tools/render_rollout.py", ["--checkpoint", "no_such.pt", "--out", "x.gif"], "no such checkpoint"),
-                ("tools/studies/train_log_curves.py", ["train.log", "--window", "0"], "--window"),
-                ("tools/studies/wheel_step_response.py", ["--gains", "2,10"], "--gains")]  # fmt: skip
+USAGE_ERRORS = [
+    ("tools/bench.py", ["--sizes", "0"], "--sizes"),
+    ("tools/energy_audit.py", ["--seconds", "0"], "--seconds"),
+    ("tools/export_usd.py", ["--out", "x.usda", "--num-envs", "0"], "--num-envs"),
+    ("tools/gait_report.py", ["no_such_run"], "no such run directory"),
+    ("tools/plot_learning_curve.py", ["no_such_run", "--out", "x.png"], "no such run directory"),
+    ("tools/render_rollout.py", ["--checkpoint", "no_such.pt", "--out", "x.gif"], "no such checkpoint"),
+    ("tools/studies/train_log_curves.py", ["train.log", "--window", "0"], "--window"),
+    ("tools/studies/wheel_step_response.py", ["--gains", "2,10"], "--gains"),
+]
 """A command, options that parse but that it refuses (a :class:`wqwarp.cli.args.UsageError`), and what its message
 names."""
 
 
 @pytest.mark.parametrize(("script", "argv", "names"), USAGE_ERRORS, ids=[s for s, _, _ in USAGE_ERRORS])
 def test_a_refused_option_is_one_error_line_and_exit_2(script, argv, names, tmp_path):
-    r = subprocess.run([sys.executable, os.path.join(ROOT, script), *argv], cwd=tmp_path, capture_output=True,
-                       text=True, timeout=120)  # fmt: skip
+    r = subprocess.run(
+        [sys.executable, os.path.join(ROOT, script), *argv], cwd=tmp_path, capture_output=True, text=True, timeout=120
+    )
     lines = r.stderr.splitlines()
     assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: ") and names in lines[0], r.stderr
     assert not os.listdir(tmp_path)  # nothing written
@@ -136,6 +170,19 @@ def test_a_refused_option_is_one_error_line_and_exit_2(script, argv, names, tmp_
 
 def test_evaluate_into_an_unwritable_place(bad_files):
     main = _script("train/evaluate.py").main
-    code, err = _exit_code(main, ["--checkpoint", str(bad_files / "model_0.pt"), "--tasks", "vx", "--num-envs", "2",
-                                  "--seconds", "3", "--json", str(bad_files / "a_file" / "eval.json")])  # fmt: skip
+    code, err = _exit_code(
+        main,
+        [
+            "--checkpoint",
+            str(bad_files / "model_0.pt"),
+            "--tasks",
+            "vx",
+            "--num-envs",
+            "2",
+            "--seconds",
+            "3",
+            "--json",
+            str(bad_files / "a_file" / "eval.json"),
+        ],
+    )
     assert code == 2 and err.count("\n") == 1 and "eval.json" in err, err

@@ -18,12 +18,21 @@ import numpy as np
 import pytest
 
 REFERENCE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "first_iteration.npz")
-OMNI = {"env.gait.lateral_gain": 0.35, "env.predictor.criterion": "kinematic", "env.predictor.label_source": "mean",
-        "env.predictor.label_fraction": 0.03125, "env.predictor.kinematic_yaw_limit": 0.2,
-        "train.init_noise_std_groups": (0.5, 0.25, 0.5)}  # fmt: skip
+OMNI = {
+    "env.gait.lateral_gain": 0.35,
+    "env.predictor.criterion": "kinematic",
+    "env.predictor.label_source": "mean",
+    "env.predictor.label_fraction": 0.03125,
+    "env.predictor.kinematic_yaw_limit": 0.2,
+    "train.init_noise_std_groups": (0.5, 0.25, 0.5),
+}
 """The levers of the former ``--profile omni`` (docs/studies/omnidirectional), over the paper's ``ours``."""
-CASES = (("ours", "ours-paper", 5, {}), ("baseline", "baseline-paper", 7, {}), ("ours+omni", "ours-paper", 5, OMNI),
-         ("ours+select", "ours", 5, {}))  # fmt: skip
+CASES = (
+    ("ours", "ours-paper", 5, {}),
+    ("baseline", "baseline-paper", 7, {}),
+    ("ours+omni", "ours-paper", 5, OMNI),
+    ("ours+select", "ours", 5, {}),
+)
 """(key prefix in the reference file, task, seed, overrides); the paper's cases keep the names recorded at bc08f71."""
 
 
@@ -31,8 +40,12 @@ def first_iteration(head: str, task: str, seed: int, overrides: dict) -> dict[st
     runner = helpers.first_iteration(task, num_envs=8, seed=seed, steps_per_env=8, overrides=overrides)
     env = runner.env
     st = runner.alg.storage
-    out = {"rewards": st.rewards, "obs": st.observations["policy"], "privileged": st.observations["privileged"],
-           "actions": st.actions}  # fmt: skip
+    out = {
+        "rewards": st.rewards,
+        "obs": st.observations["policy"],
+        "privileged": st.observations["privileged"],
+        "actions": st.actions,
+    }
     nets = {"actor": runner.alg.actor, "critic": runner.alg.critic, "estimator": env.estimator}
     if env.gait_selector.name == "predictive":
         nets["predictor"] = env.gait_selector.predictor

@@ -11,8 +11,22 @@ from wqwarp.cli import bench_train, time_to_skill
 
 def test_bench_train_json_rates_and_breakdown(tmp_path):
     out = tmp_path / "bench.json"
-    rc = bench_train.main(["--sizes", "4", "--iterations", "2", "--steps-per-env", "4", "--seconds", "0.2",
-                           "--threads", "1", "--json", str(out)])  # fmt: skip
+    rc = bench_train.main(
+        [
+            "--sizes",
+            "4",
+            "--iterations",
+            "2",
+            "--steps-per-env",
+            "4",
+            "--seconds",
+            "0.2",
+            "--threads",
+            "1",
+            "--json",
+            str(out),
+        ]
+    )
     assert rc == 0
     data = json.loads(out.read_text())
     assert data["threads"] == {"torch": 1, "update": 1, "physics": 1} and data["busy_cores"] == 0
@@ -28,8 +42,10 @@ def test_bench_train_json_rates_and_breakdown(tmp_path):
     assert all(v >= -1e-3 for v in r["breakdown_s"].values())
 
 
-@pytest.mark.parametrize("argv", [["--sizes", "0"], ["--sizes", "a"], ["--threads", "0"], ["--task", "nope"],
-                                  ["--json", "/no/such/dir/x.json"]])  # fmt: skip
+@pytest.mark.parametrize(
+    "argv",
+    [["--sizes", "0"], ["--sizes", "a"], ["--threads", "0"], ["--task", "nope"], ["--json", "/no/such/dir/x.json"]],
+)
 def test_bench_train_bad_input_exits_2(argv, capsys):
     assert bench_train.main(argv) == 2
     assert "error:" in capsys.readouterr().err
@@ -57,8 +73,10 @@ def test_train_log_curves_average_the_progress_lines_of_a_console_log(tmp_path, 
     tool = importlib.import_module("tools.studies.train_log_curves")
 
     def line(it, reward, vy, power):
-        return (f"[#---] {it}/4 ETA 0:00:0{it} | reward {reward:7.2f} | err vx 0.10 vy {vy:.2f} wz 0.50 | power "
-                f"{power:6.1f} W (legs {power - 10:5.1f}, wheels  10.0) |   1000 steps/s")  # fmt: skip
+        return (
+            f"[#---] {it}/4 ETA 0:00:0{it} | reward {reward:7.2f} | err vx 0.10 vy {vy:.2f} wz 0.50 | power "
+            f"{power:6.1f} W (legs {power - 10:5.1f}, wheels  10.0) |   1000 steps/s"
+        )
 
     log = tmp_path / "run.log"
     text = "header\n" + "\r".join([line(1, 10.0, 0.5, 100.0), line(2, 99.0, 0.9, 1.0), line(2, 20.0, 0.3, 80.0)])
@@ -74,9 +92,19 @@ def test_train_log_curves_average_the_progress_lines_of_a_console_log(tmp_path, 
     data = json.loads(out.read_text())["logs"][str(log)]
     assert data["first_below"] == {"vy": 3} and data["points"]["9"] is None
     assert tool.main([str(log), "--skill", "roll=0.1"]) == 2 and "choose from vx" in capsys.readouterr().err
-    rows = [{"iteration": k, "mean_reward": 10.0 * k, "Metrics/vx_error": 0.1, "Metrics/vy_error": 0.4 / k,
-             "Metrics/wz_error": 0.5, "Metrics/p_cost": 100.0, "Metrics/p_cost_legs": 90.0,
-             "Metrics/p_cost_wheels": 10.0} for k in (10, 20)]  # fmt: skip
+    rows = [
+        {
+            "iteration": k,
+            "mean_reward": 10.0 * k,
+            "Metrics/vx_error": 0.1,
+            "Metrics/vy_error": 0.4 / k,
+            "Metrics/wz_error": 0.5,
+            "Metrics/p_cost": 100.0,
+            "Metrics/p_cost_legs": 90.0,
+            "Metrics/p_cost_wheels": 10.0,
+        }
+        for k in (10, 20)
+    ]
     (tmp_path / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows) + '{"iteration": 3')
     jl = tool.read_log(str(tmp_path / "metrics.jsonl"))
     assert sorted(jl) == [10, 20] and jl[20]["err_vy"] == pytest.approx(0.02) and jl[10]["power_wheels"] == 10.0
@@ -104,8 +132,10 @@ def test_headline_checks_read_records_of_any_runs_as_the_reproduction_page_does(
     tool = importlib.import_module("tools.studies.headline_checks")
 
     def record(path, vx, vy, wz):
-        rows = [{"task": t, "mse": m, "mean_p_cost": p, "gait_usage": {"driving": 1.0}, "command": [0.0, 0.0, 0.0]}
-                for t, (m, p) in (("vx", vx), ("vy", vy), ("wz", wz))]  # fmt: skip
+        rows = [
+            {"task": t, "mse": m, "mean_p_cost": p, "gait_usage": {"driving": 1.0}, "command": [0.0, 0.0, 0.0]}
+            for t, (m, p) in (("vx", vx), ("vy", vy), ("wz", wz))
+        ]
         path.write_text(json.dumps({"results": rows}))
         return str(path)
 

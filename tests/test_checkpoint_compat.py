@@ -46,9 +46,13 @@ def test_another_gait_set_and_the_earlier_format(tmp_path):
         b.load(str(tmp_path / "tuned.pt"))
 
     old = {k: v for k, v in ckpt.items() if not k.startswith(("estimator_", "gait_selector_"))}
-    old["infos"] = dict(ckpt["infos"], format=1, estimator=ckpt["estimator_state_dict"],
-                        estimator_optimizer=ckpt["estimator_optimizer_state_dict"],
-                        gait_selector=ckpt["gait_selector_state_dict"])  # fmt: skip
+    old["infos"] = dict(
+        ckpt["infos"],
+        format=1,
+        estimator=ckpt["estimator_state_dict"],
+        estimator_optimizer=ckpt["estimator_optimizer_state_dict"],
+        gait_selector=ckpt["gait_selector_state_dict"],
+    )
     torch.save(old, tmp_path / "old.pt")
     b.load(str(tmp_path / "old.pt"))
     for x, y in ((a.env.estimator, b.env.estimator), (a.env.gait_selector.predictor, b.env.gait_selector.predictor)):
@@ -168,13 +172,18 @@ def test_a_setting_added_to_its_dataclass_needs_no_other_edit_to_load_an_old_che
     notes: list[str] = []
     cfg = from_dict(_TiltedEnv, old, migrated=notes)
     assert (cfg.gait.tilt, cfg.gait.tilt_limit) == (0.0, 0.2) and cfg.gait.library == EnvConfig().gait.library
-    assert notes == ["gait.tilt = 0.0 (no tilt before the setting existed)",
-                     "gait.tilt_limit = 0.2 (its default (unused at tilt 0))"]  # fmt: skip
+    assert notes == [
+        "gait.tilt = 0.0 (no tilt before the setting existed)",
+        "gait.tilt_limit = 0.2 (its default (unused at tilt 0))",
+    ]
     assert ("gait.tilt", 0.0, "no tilt before the setting existed") in migrations(_TiltedEnv)
     assert from_dict(_TiltedEnv, to_dict(cfg), migrated=notes) == cfg and len(notes) == 2  # nothing to fill
 
-    with pytest.raises(ValueError, match=r"_BareTiltedEnv.gait: missing keys \['tilt'\].*on its own field: "
-                                         r"metadata=migrate\(value, why\) or since_default\(why\)"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"_BareTiltedEnv.gait: missing keys \['tilt'\].*on its own field: "
+        r"metadata=migrate\(value, why\) or since_default\(why\)",
+    ):
         from_dict(_BareTiltedEnv, old, migrated=[])
     with pytest.raises(ValueError, match=r"_TiltedEnv.gait: missing keys \['tilt', 'tilt_limit'\]"):
         from_dict(_TiltedEnv, old)  # without a list to report them in, nothing is filled

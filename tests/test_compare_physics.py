@@ -20,8 +20,10 @@ def test_summary_means_and_rms_after_the_settling_second():
     tool = _tool()
     t = np.arange(1, 101) * 0.02  # 2 s at 50 Hz
     a = [dict(t=x, **{q: 1.0 for q in tool.QUANTITIES}) for x in t]
-    b = [dict(t=x, **{q: (1.0 if x <= 1.0 else 1.0 + (0.3 if i % 2 else -0.1)) for q in tool.QUANTITIES})
-         for i, x in enumerate(t)]  # fmt: skip
+    b = [
+        dict(t=x, **{q: (1.0 if x <= 1.0 else 1.0 + (0.3 if i % 2 else -0.1)) for q in tool.QUANTITIES})
+        for i, x in enumerate(t)
+    ]
     out = tool.compare({"mujoco_cpu": a, "featherstone": b}, ["mujoco_cpu", "featherstone"])
     kept = [(0.3 if i % 2 else -0.1) for i, x in enumerate(t) if x > 1.0]
     for q in tool.QUANTITIES:

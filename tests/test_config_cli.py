@@ -21,23 +21,29 @@ from wqwarp.sim.config import BACKENDS, SimConfig
 PHYSICS = {"newton", "mujoco", "warp", "torch"}
 
 
-@pytest.mark.parametrize("module", ["wqwarp.rl.config", "wqwarp.sim.config", "wqwarp.rl.presets",
-                                    "wqwarp.rl.tasks", "wqwarp.cli.train_args"])  # fmt: skip
+@pytest.mark.parametrize(
+    "module", ["wqwarp.rl.config", "wqwarp.sim.config", "wqwarp.rl.presets", "wqwarp.rl.tasks", "wqwarp.cli.train_args"]
+)
 def test_reading_a_config_imports_no_physics_engine_and_no_torch(module):
-    code = (f"import {module}, sys; from wqwarp.rl.presets import make_preset; make_preset('ours').sim; "
-            f"print(sorted({PHYSICS!r} & {{m.split('.')[0] for m in sys.modules}}))")  # fmt: skip
+    code = (
+        f"import {module}, sys; from wqwarp.rl.presets import make_preset; make_preset('ours').sim; "
+        f"print(sorted({PHYSICS!r} & {{m.split('.')[0] for m in sys.modules}}))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]", out
 
 
-@pytest.mark.parametrize(("build", "field", "bad"), [
-    (lambda v: GaitConfig(selection=v), "GaitConfig.selection", "greedy"),
-    (lambda v: PredictorConfig(power_normalization=v), "PredictorConfig.power_normalization", "kilowatts"),
-    (lambda v: PredictorConfig(temperature_shape=v), "PredictorConfig.temperature_shape", "step"),
-    (lambda v: PredictorConfig(evaluation_selection=v), "PredictorConfig.evaluation_selection", "max"),
-    (lambda v: SimConfig(backend=v), "SimConfig.backend", "physx"),
-    (lambda v: SimConfig(joint_model=v), "SimConfig.joint_model", "urdf"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("build", "field", "bad"),
+    [
+        (lambda v: GaitConfig(selection=v), "GaitConfig.selection", "greedy"),
+        (lambda v: PredictorConfig(power_normalization=v), "PredictorConfig.power_normalization", "kilowatts"),
+        (lambda v: PredictorConfig(temperature_shape=v), "PredictorConfig.temperature_shape", "step"),
+        (lambda v: PredictorConfig(evaluation_selection=v), "PredictorConfig.evaluation_selection", "max"),
+        (lambda v: SimConfig(backend=v), "SimConfig.backend", "physx"),
+        (lambda v: SimConfig(joint_model=v), "SimConfig.joint_model", "urdf"),
+    ],
+)
 def test_a_bad_choice_is_one_error_naming_field_value_and_choices(build, field, bad):
     with pytest.raises(ValueError, match=rf"^{field} '{bad}' is not one of \w+"):
         build(bad)
@@ -52,15 +58,18 @@ def test_a_choice_is_also_checked_when_assigned_later():
     assert cfg.sim.backend == "featherstone" and set(BACKENDS) >= {"auto", "featherstone"}
 
 
-@pytest.mark.parametrize(("build", "match"), [
-    (lambda: SimConfig(num_envs=0), "SimConfig.num_envs must be >= 1"),
-    (lambda: SimConfig(dt=0.0), "SimConfig.dt must be > 0"),
-    (lambda: SimConfig(device="tpu"), "SimConfig.device must be cpu or cuda:N"),
-    (lambda: PredictorConfig(temperature_start=0.0), "PredictorConfig.temperature_start must be > 0"),
-    (lambda: PredictorConfig(decision_interval_s=-1.0), "PredictorConfig.decision_interval_s must be > 0"),
-    (lambda: PredictorConfig(holdout_fraction=1.0), r"PredictorConfig.holdout_fraction must be in \[0, 1\)"),
-    (lambda: TrainConfig(max_iterations=0), "TrainConfig.max_iterations must be > 0"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("build", "match"),
+    [
+        (lambda: SimConfig(num_envs=0), "SimConfig.num_envs must be >= 1"),
+        (lambda: SimConfig(dt=0.0), "SimConfig.dt must be > 0"),
+        (lambda: SimConfig(device="tpu"), "SimConfig.device must be cpu or cuda:N"),
+        (lambda: PredictorConfig(temperature_start=0.0), "PredictorConfig.temperature_start must be > 0"),
+        (lambda: PredictorConfig(decision_interval_s=-1.0), "PredictorConfig.decision_interval_s must be > 0"),
+        (lambda: PredictorConfig(holdout_fraction=1.0), r"PredictorConfig.holdout_fraction must be in \[0, 1\)"),
+        (lambda: TrainConfig(max_iterations=0), "TrainConfig.max_iterations must be > 0"),
+    ],
+)
 def test_numeric_sanity_at_construction(build, match):
     with pytest.raises(ValueError, match=match):
         build()
@@ -100,11 +109,31 @@ def _default_of(text: str, option: str) -> str:
 
 
 def test_every_type_of_field_parses_from_the_command_line():
-    args = _parse("--env.reward.energy", "-2e-5", "--env.sim.num_envs", "3", "--env.obs.no-noise",
-                  "--env.commands.vx-range", "-1", "1.5", "--env.predictor.hidden-dims", "32", "16", "8",
-                  "--env.sim.nthread", "None", "--env.domain-rand.no-enabled", "--env.gait.selection", "fixed",
-                  "--train.max-iterations=7", "--env.sim.cuda-graph", "--env.reward.ramp-terms", "p_cost",
-                  "--env.gait.library.1.frequency", "1.5")  # fmt: skip
+    args = _parse(
+        "--env.reward.energy",
+        "-2e-5",
+        "--env.sim.num_envs",
+        "3",
+        "--env.obs.no-noise",
+        "--env.commands.vx-range",
+        "-1",
+        "1.5",
+        "--env.predictor.hidden-dims",
+        "32",
+        "16",
+        "8",
+        "--env.sim.nthread",
+        "None",
+        "--env.domain-rand.no-enabled",
+        "--env.gait.selection",
+        "fixed",
+        "--train.max-iterations=7",
+        "--env.sim.cuda-graph",
+        "--env.reward.ramp-terms",
+        "p_cost",
+        "--env.gait.library.1.frequency",
+        "1.5",
+    )
     env, train = args.env, args.train
     assert env.reward.energy == -2e-5 and env.sim.num_envs == 3 and env.obs.noise is False
     assert env.commands.vx_range == (-1.0, 1.5) and env.predictor.hidden_dims == (32, 16, 8)
@@ -116,8 +145,23 @@ def test_every_type_of_field_parses_from_the_command_line():
 
 
 def test_the_task_comes_first_then_the_short_flags_and_long_options():
-    args = _parse("baseline-paper", "--num-envs", "8", "--dt", "0.002", "--decimation", "10", "--reward",
-                  "energy=-1e-4", "--temperature", "3", "0.1", "--true-state", "--max-iterations", "5")  # fmt: skip
+    args = _parse(
+        "baseline-paper",
+        "--num-envs",
+        "8",
+        "--dt",
+        "0.002",
+        "--decimation",
+        "10",
+        "--reward",
+        "energy=-1e-4",
+        "--temperature",
+        "3",
+        "0.1",
+        "--true-state",
+        "--max-iterations",
+        "5",
+    )
     env, train = args.env, args.train
     assert args.task == "baseline-paper" and env.gait.selection == "none" and env.reward.residual == 0.0
     assert env.sim.num_envs == 8 and (env.sim.dt, env.sim.decimation) == (0.002, 10)
@@ -133,8 +177,9 @@ def test_the_task_comes_first_then_the_short_flags_and_long_options():
 def test_the_resolved_config_holds_the_task_the_command_line_and_what_it_changed():
     args = _parse("--num-envs", "4", "--env.reward.energy", "-2e-5", "--seed", "3", "--log-dir", "x")
     rec = resolved_config(args)
-    assert rec["task"] == "ours" and rec["command"] == ("train/ppo_newton.py --num-envs 4 --env.reward.energy -2e-5 "
-                                                        "--seed 3 --log-dir x")  # fmt: skip
+    assert rec["task"] == "ours" and rec["command"] == (
+        "train/ppo_newton.py --num-envs 4 --env.reward.energy -2e-5 --seed 3 --log-dir x"
+    )
     assert rec["overrides"] == {"env.sim.num_envs": 4, "env.reward.energy": -2e-5, "env.seed": 3}
     assert rec["args"]["log_dir"] == "x" and rec["args"]["resume"] is None and rec["env"]["sim"]["num_envs"] == 4
     assert json.loads(json.dumps(rec)) == json.loads(json.dumps(rec))  # JSON-serialisable
@@ -147,18 +192,21 @@ def test_every_short_flag_targets_a_config_field():
         assert flag.startswith("--") and "_" not in flag
 
 
-@pytest.mark.parametrize(("argv", "message"), [
-    (["--env.gait.selection", "greedy"], "invalid choice 'greedy'"),
-    (["--env.sim.dt", "fast"], "could not convert string to float: 'fast'"),
-    (["--env.sim.dtt", "0.1"], "did you mean --env.sim.dt?"),
-    (["--reward", "speed=1"], "unknown term 'speed'"),
-    (["--num-envs", "0"], "SimConfig.num_envs must be >= 1"),
-    (["--env.commands.vx-range", "2", "1"], "CommandConfig.vx_range must be (lo, hi) with lo <= hi"),
-    (["--temperature", "1"], "--temperature expects 2 values"),
-    (["ourz"], "unknown task 'ourz'; tasks: ours, ours-paper"),
-    (["--profile", "select"], "--profile was removed: the task id carries the recipe"),
-    (["--preset", "pmtg"], "--preset was removed: the method is the task id now"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--env.gait.selection", "greedy"], "invalid choice 'greedy'"),
+        (["--env.sim.dt", "fast"], "could not convert string to float: 'fast'"),
+        (["--env.sim.dtt", "0.1"], "did you mean --env.sim.dt?"),
+        (["--reward", "speed=1"], "unknown term 'speed'"),
+        (["--num-envs", "0"], "SimConfig.num_envs must be >= 1"),
+        (["--env.commands.vx-range", "2", "1"], "CommandConfig.vx_range must be (lo, hi) with lo <= hi"),
+        (["--temperature", "1"], "--temperature expects 2 values"),
+        (["ourz"], "unknown task 'ourz'; tasks: ours, ours-paper"),
+        (["--profile", "select"], "--profile was removed: the task id carries the recipe"),
+        (["--preset", "pmtg"], "--preset was removed: the method is the task id now"),
+    ],
+)
 def test_a_bad_command_line_is_one_usage_error(argv, message):
     with pytest.raises(UsageError) as e:
         _parse(*argv)
@@ -187,7 +235,8 @@ def test_registry_names_each_preset_once():
         assert make_preset(name) is not cfg and PRESETS[name].selector == cfg.gait.selection
     assert preset_differences("ours", make_preset("pmtg")) == [
         "gait.selection 'fixed' (preset ours: 'predictive')",
-        "action.use_nominal_wheels False (preset ours: True)"]  # fmt: skip
+        "action.use_nominal_wheels False (preset ours: True)",
+    ]
 
 
 def test_the_tasks_are_each_method_with_its_levers_and_as_the_paper_writes_it():
@@ -222,8 +271,12 @@ def test_the_tasks_are_each_method_with_its_levers_and_as_the_paper_writes_it():
 def test_a_new_task_is_one_registry_entry(monkeypatch):
     from wqwarp.rl import tasks
 
-    entry = tasks.Task("ours-fast", "ours", "ours with a short horizon", (
-        tasks.Lever("env.predictor.horizon_s", 0.5, lambda cfg: True, "a test", "feasible_selection"),))
+    entry = tasks.Task(
+        "ours-fast",
+        "ours",
+        "ours with a short horizon",
+        (tasks.Lever("env.predictor.horizon_s", 0.5, lambda cfg: True, "a test", "feasible_selection"),),
+    )
     monkeypatch.setitem(tasks.TASKS, entry.name, entry)
     args = _parse("ours-fast")
     assert args.task == "ours-fast" and args.env.predictor.horizon_s == 0.5 and args.env.sim.wheel_ki == 2.0
@@ -247,10 +300,22 @@ def test_a_new_preset_is_one_factory_and_one_registry_entry(monkeypatch):
 def test_print_config_shows_the_resolved_task_and_builds_nothing(tmp_path):
     """``ppo_newton.py --print-config``: the ours task with P-only wheels and the feasibility-aware selection;
     ``ours-paper``: the paper's values. Nothing is written, no env is built (no physics imported)."""
+
     def show(*argv):
-        r = subprocess.run([sys.executable, os.path.join(ROOT, "train", "ppo_newton.py"), *argv, "--print-config",
-                            "--log-dir", str(tmp_path / "run")], capture_output=True, text=True, cwd=tmp_path,
-                           timeout=120)  # fmt: skip
+        r = subprocess.run(
+            [
+                sys.executable,
+                os.path.join(ROOT, "train", "ppo_newton.py"),
+                *argv,
+                "--print-config",
+                "--log-dir",
+                str(tmp_path / "run"),
+            ],
+            capture_output=True,
+            text=True,
+            cwd=tmp_path,
+            timeout=120,
+        )
         assert r.returncode == 0, r.stderr
         return json.loads(r.stdout)
 
@@ -259,8 +324,11 @@ def test_print_config_shows_the_resolved_task_and_builds_nothing(tmp_path):
     assert ours["env"]["predictor"]["criterion"] == "kinematic_feasible"
     assert ours["env"]["predictor"]["label_command_cut"] is True
     paper = show("ours-paper", "--seed", "4")
-    assert paper["task"] == "ours-paper" and paper["env"]["sim"]["wheel_ki"] == 2.0 and paper["overrides"] == {
-        "env.seed": 4}
+    assert (
+        paper["task"] == "ours-paper"
+        and paper["env"]["sim"]["wheel_ki"] == 2.0
+        and paper["overrides"] == {"env.seed": 4}
+    )
     assert paper["env"]["predictor"]["criterion"] == "power" and paper["env"]["gait"]["lateral_gain"] == 0.0
     assert not (tmp_path / "run").exists() and not (tmp_path / "runs").exists()
 
@@ -280,8 +348,9 @@ def test_gaits_tuned_on_the_differentiable_path_reach_the_resolved_config(tmp_pa
     malformed or foreign file is one line naming the option, exit 2."""
     from wqwarp.control.gaits import load_tuned_gait
 
-    trot, walk = (os.path.join(ROOT, "docs", "studies", "diffsim", f"optimize_{g}_0.3.json")
-                  for g in ("trotting", "walking"))  # fmt: skip
+    trot, walk = (
+        os.path.join(ROOT, "docs", "studies", "diffsim", f"optimize_{g}_0.3.json") for g in ("trotting", "walking")
+    )
     args = _parse("--env.gait.tuned", trot, "--num-envs", "4", f"--env.gait.tuned={walk}")
     env = args.env
     tuned = [load_tuned_gait(trot), load_tuned_gait(walk)]
@@ -293,25 +362,78 @@ def test_gaits_tuned_on_the_differentiable_path_reach_the_resolved_config(tmp_pa
 
     (tmp_path / "bad.json").write_text("{not json")
     (tmp_path / "other.json").write_text(json.dumps({"loss": 1.0}))
-    for path, match in ((tmp_path / "missing.json", "No such file"), (tmp_path / "bad.json", "not JSON"),
-                        (tmp_path / "other.json", "not a tuned gait")):  # fmt: skip
+    for path, match in (
+        (tmp_path / "missing.json", "No such file"),
+        (tmp_path / "bad.json", "not JSON"),
+        (tmp_path / "other.json", "not a tuned gait"),
+    ):
         with pytest.raises(UsageError, match=rf"^--env.gait.tuned '{path}': .*{match}") as e:
             _parse("--env.gait.tuned", str(path))
         assert "\n" not in str(e.value)
-    r = subprocess.run([sys.executable, os.path.join(ROOT, "train", "ppo_newton.py"), "--env.gait.tuned",
-                        str(tmp_path / "missing.json"), "--log-dir", str(tmp_path / "run")], capture_output=True,
-                       text=True, cwd=ROOT, timeout=120)  # fmt: skip
+    r = subprocess.run(
+        [
+            sys.executable,
+            os.path.join(ROOT, "train", "ppo_newton.py"),
+            "--env.gait.tuned",
+            str(tmp_path / "missing.json"),
+            "--log-dir",
+            str(tmp_path / "run"),
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--env.gait.tuned" in r.stderr, r.stderr
     assert not (tmp_path / "run").exists()
 
 
-@pytest.mark.parametrize(("name", "match"), [
-    ("WqPPO", "must be 'module:Class'"),
-    ("wqwarp.rl.algorithm:Nope", "does not import"),
-    ("rsl_rl.algorithms:PPO", "must name WqPPO or a subclass"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("name", "match"),
+    [
+        ("WqPPO", "must be 'module:Class'"),
+        ("wqwarp.rl.algorithm:Nope", "does not import"),
+        ("rsl_rl.algorithms:PPO", "must name WqPPO or a subclass"),
+    ],
+)
 def test_the_algorithm_class_must_name_an_importable_wqppo(name, match):
     with pytest.raises(UsageError, match=rf"TrainConfig.algorithm_class .*{match}"):
         _parse("--train.algorithm-class", name)
     train = _parse("--train.algorithm-class", "wqwarp.rl.algorithm:KeptMeanActorsPPO").train
     assert train.rsl_rl_dict()["algorithm"]["class_name"] == "wqwarp.rl.algorithm:KeptMeanActorsPPO"
+
+
+UTF8_BOX = (
+    "╭─ Required options ──────────────────────────────────────────────╮\n"
+    "│ Missing from x:                                                 │\n"
+    "│     --checkpoint STR                                            │\n"
+    "│         model_<it>.pt written by train/ppo_newton.py (required) │\n"
+    "│ ─────────────────────────────────────────────────────────────── │\n"
+    "│ Unrecognized options:                                           │\n"
+    "│     --no-such-option                                            │\n"
+    "│ ─────────────────────────────────────────────────────────────── │\n"
+    "│ For full helptext, run:                                         │\n"
+    "│     x --help                                                    │\n"
+    "╰─────────────────────────────────────────────────────────────────╯\n"
+)
+ASCII_BOX = (
+    " Unrecognized options                                        \n"
+    " ----------------------------------------------------------- \n"
+    "  Unrecognized options: --env.sim.dtt, 3                     \n"
+    "  -----------------------------------------------------------\n"
+    "  Perhaps you meant:                                         \n"
+    "      --env.sim.dt FLOAT                                     \n"
+    "  -----------------------------------------------------------\n"
+    "  For full helptext, see x --help                            \n"
+)
+
+
+def test_tyro_errors_become_one_line_in_either_box_style():
+    """tyro draws its errors in a UTF-8 box on a UTF-8 terminal and without one otherwise: the same one line."""
+    from wqwarp.cli.args import tyro_error_line
+
+    one = "Missing from x: --checkpoint STR model_<it>.pt written by train/ppo_newton.py (required); "
+    assert tyro_error_line(UTF8_BOX) == one + "Unrecognized options: --no-such-option (see --help)"
+    two = "Unrecognized options: --env.sim.dtt, 3 (did you mean --env.sim.dt?) (see --help)"
+    assert tyro_error_line(ASCII_BOX) == two
+    assert tyro_error_line("") == "invalid command line (see --help)"

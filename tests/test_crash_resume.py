@@ -30,8 +30,13 @@ def _iterations_logged(log) -> int:
 def test_sigkill_between_checkpoints_loses_at_most_one_interval_and_resumes(tmp_path):
     log = tmp_path / "run"
     args = ["--num-envs", "8", "--num-steps-per-env", "8", "--save-interval", "3", "--log-dir", str(log), "--no-export"]
-    proc = subprocess.Popen([sys.executable, TRAIN, "--max-iterations", "500", *args], cwd=ROOT,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    proc = subprocess.Popen(
+        [sys.executable, TRAIN, "--max-iterations", "500", *args],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         deadline = time.time() + 300
         while not (log / "model_6.pt").exists():
@@ -52,9 +57,21 @@ def test_sigkill_between_checkpoints_loses_at_most_one_interval_and_resumes(tmp_
     last = ckpts[-1]
     assert _iterations_logged(log) - 1 - last <= 3  # at most one checkpoint interval of work lost
 
-    r = subprocess.run([sys.executable, TRAIN, "--max-iterations", str(last + 3), "--resume",  # the new total
-                        str(log / f"model_{last}.pt"), *args], cwd=ROOT, capture_output=True, text=True,
-                       timeout=600)  # fmt: skip
+    r = subprocess.run(
+        [
+            sys.executable,
+            TRAIN,
+            "--max-iterations",
+            str(last + 3),
+            "--resume",  # the new total
+            str(log / f"model_{last}.pt"),
+            *args,
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     assert torch.load(log / f"model_{last + 2}.pt", weights_only=False)["iter"] == last + 2
 
@@ -73,8 +90,12 @@ def test_resume_restores_networks_optimisers_schedule_and_random_state(tmp_path)
     b = _runner(2)  # other seed, other initialisation
     torch.manual_seed(123)
     b.load(path, restore_rng=True)
-    for x, y in ((a.alg.actor, b.alg.actor), (a.alg.critic, b.alg.critic), (a.env.estimator, b.env.estimator),
-                 (a.env.gait_selector.predictor, b.env.gait_selector.predictor)):  # fmt: skip
+    for x, y in (
+        (a.alg.actor, b.alg.actor),
+        (a.alg.critic, b.alg.critic),
+        (a.env.estimator, b.env.estimator),
+        (a.env.gait_selector.predictor, b.env.gait_selector.predictor),
+    ):
         for (k, p), q in zip(x.state_dict().items(), y.state_dict().values(), strict=True):
             assert torch.equal(p, q), k  # weights and observation normalisers
     opt_a, opt_b = a.alg.optimizer.state_dict(), b.alg.optimizer.state_dict()

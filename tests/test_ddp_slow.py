@@ -18,10 +18,30 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 def test_torchrun_two_cpu_processes_train_identical_networks(tmp_path):
     torchrun = shutil.which("torchrun") or os.path.join(os.path.dirname(sys.executable), "torchrun")
     log = tmp_path / "ddp"
-    r = subprocess.run([torchrun, "--nproc_per_node=2", os.path.join(ROOT, "train", "ppo_newton.py"), "--device",
-                        "cpu", "--num-envs", "8", "--max-iterations", "4", "--num-steps-per-env", "8",
-                        "--save-interval", "1", "--log-dir", str(log), "--no-export"],
-                       capture_output=True, text=True, cwd=ROOT, timeout=900)  # fmt: skip
+    r = subprocess.run(
+        [
+            torchrun,
+            "--nproc_per_node=2",
+            os.path.join(ROOT, "train", "ppo_newton.py"),
+            "--device",
+            "cpu",
+            "--num-envs",
+            "8",
+            "--max-iterations",
+            "4",
+            "--num-steps-per-env",
+            "8",
+            "--save-interval",
+            "1",
+            "--log-dir",
+            str(log),
+            "--no-export",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=900,
+    )
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-3000:]
     m = re.search(r"ranks in sync \(largest parameter difference to rank 0\): (.*)", r.stdout)
     assert m, r.stdout[-2000:]

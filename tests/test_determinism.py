@@ -17,9 +17,13 @@ def _first_iteration(seed: int) -> dict:
     runner = first_iteration("ours-paper", num_envs=8, seed=seed, steps_per_env=8)
     env = runner.env
     st = runner.alg.storage
-    return {"rewards": st.rewards.clone(), "obs": st.observations["policy"].clone(), "actions": st.actions.clone(),
-            "actor": {k: v.clone() for k, v in runner.alg.actor.state_dict().items()},
-            "estimator": {k: v.clone() for k, v in env.estimator.state_dict().items()}}  # fmt: skip
+    return {
+        "rewards": st.rewards.clone(),
+        "obs": st.observations["policy"].clone(),
+        "actions": st.actions.clone(),
+        "actor": {k: v.clone() for k, v in runner.alg.actor.state_dict().items()},
+        "estimator": {k: v.clone() for k, v in env.estimator.state_dict().items()},
+    }
 
 
 def test_the_same_seed_gives_the_same_first_iteration():

@@ -34,10 +34,16 @@ class HostCopies:
     on CUDA each is a copy and a synchronisation, so they must not run per step."""
 
     NAMES = (
-        (wp.array, "numpy"), (wp.array, "assign"), (torch.Tensor, "cpu"), (torch.Tensor, "numpy"),
-        (torch.Tensor, "item"), (torch.Tensor, "tolist"), (torch.Tensor, "__float__"), (torch.Tensor, "__int__"),
+        (wp.array, "numpy"),
+        (wp.array, "assign"),
+        (torch.Tensor, "cpu"),
+        (torch.Tensor, "numpy"),
+        (torch.Tensor, "item"),
+        (torch.Tensor, "tolist"),
+        (torch.Tensor, "__float__"),
+        (torch.Tensor, "__int__"),
         (torch.Tensor, "__bool__"),
-    )  # fmt: skip
+    )
 
     def __init__(self, monkeypatch):
         self.calls: list[str] = []

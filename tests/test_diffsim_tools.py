@@ -16,8 +16,7 @@ from wqwarp.cli import optimize_gait  # noqa: E402
 
 def test_gradient_study_short_horizon_agrees(tmp_path):
     out = tmp_path / "g.json"
-    assert gradient_study.main(["--dts", "0.005", "--horizons", "0.02", "--warmup", "0.1", "--json",
-                                str(out)]) == 0  # fmt: skip
+    assert gradient_study.main(["--dts", "0.005", "--horizons", "0.02", "--warmup", "0.1", "--json", str(out)]) == 0
     p = json.loads(out.read_text())["points"][0]
     assert p["substeps"] == 4
     for key in ("p_cost_smooth", "vx_grad"):
@@ -29,8 +28,25 @@ def test_gradient_study_short_horizon_agrees(tmp_path):
 
 def test_optimize_gait_writes_its_iterations(tmp_path):
     out = tmp_path / "o.json"
-    argv = ["--gait", "trotting", "--vx", "0.3", "--dt", "0.005", "--horizon", "0.04", "--warmup", "0.1", "--windows",
-            "2", "--iterations", "1", "--no-eval", "--json", str(out)]  # fmt: skip
+    argv = [
+        "--gait",
+        "trotting",
+        "--vx",
+        "0.3",
+        "--dt",
+        "0.005",
+        "--horizon",
+        "0.04",
+        "--warmup",
+        "0.1",
+        "--windows",
+        "2",
+        "--iterations",
+        "1",
+        "--no-eval",
+        "--json",
+        str(out),
+    ]
     assert optimize_gait.main(argv) == 0
     rep = json.loads(out.read_text())
     hist = rep["tuning"]["history"]

@@ -54,8 +54,21 @@ def test_airborne_wheels_hold_their_speed_without_chattering(audit_default_dt):
 
 def test_json_has_the_documented_fields(tmp_path, capsys):
     out = tmp_path / "audit.json"
-    argv = ["--scenarios", "standing", "--settings", "0.005x4,0.001x20", "--warmup", "0.1", "--seconds", "0.2",
-            "--num-envs", "1", "--json", str(out), "--quiet"]  # fmt: skip
+    argv = [
+        "--scenarios",
+        "standing",
+        "--settings",
+        "0.005x4,0.001x20",
+        "--warmup",
+        "0.1",
+        "--seconds",
+        "0.2",
+        "--num-envs",
+        "1",
+        "--json",
+        str(out),
+        "--quiet",
+    ]
     assert energy_audit.main(argv) == 0
     captured = capsys.readouterr()
     assert captured.err == ""  # --quiet
@@ -96,8 +109,12 @@ def test_bad_input_exits_2_without_writing(tmp_path, capsys, argv, message):
 
 
 def test_command_line_rejects_unknown_scenario_and_missing_directory(tmp_path):
-    r = subprocess.run([sys.executable, TOOL, "--scenarios", "standing,nope", "--json", str(tmp_path / "a.json")],
-                       capture_output=True, text=True, cwd=ROOT)  # fmt: skip
+    r = subprocess.run(
+        [sys.executable, TOOL, "--scenarios", "standing,nope", "--json", str(tmp_path / "a.json")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
     assert r.returncode == 2 and r.stdout == ""
     assert [line for line in r.stderr.splitlines() if line.startswith("error: ")] == [
         "error: unknown scenario nope; choose from " + ", ".join(energy_audit.SCENARIOS)
@@ -122,6 +139,7 @@ def test_default_timestep_keeps_the_energy_picture(tmp_path):
 def test_authors_model_comparison_refuses_a_missing_model(tmp_path):
     tool = os.path.join(ROOT, "tools", "studies", "compare_authors_model.py")
     out = tmp_path / "x.json"
-    r = subprocess.run([sys.executable, tool, "--mjcf", str(tmp_path / "nope.xml"), "--json", str(out)],
-                       capture_output=True, text=True)  # fmt: skip
+    r = subprocess.run(
+        [sys.executable, tool, "--mjcf", str(tmp_path / "nope.xml"), "--json", str(out)], capture_output=True, text=True
+    )
     assert r.returncode == 2 and "no such MJCF" in r.stderr and not out.exists()

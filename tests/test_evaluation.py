@@ -29,8 +29,17 @@ def test_task_metrics_on_a_scripted_trajectory():
     for k in range(4):
         v1 = 0.6 if k % 2 == 0 else 0.8
         vel = torch.tensor([[0.4, 0.0, 0.1], [v1, 0.3, 0.0]])  # robot 0 also yaws, robot 1 also drifts sideways
-        m.add(vel, _power(p_cost=[100.0, 50.0], p_cost_legs=[60.0, 10.0], p_cost_wheels=[40.0, 40.0],
-                          p_mech_legs=[30.0, 5.0], p_mech_wheels=[20.0, 25.0], p_joule_legs=[1.0, 1.0]))  # fmt: skip
+        m.add(
+            vel,
+            _power(
+                p_cost=[100.0, 50.0],
+                p_cost_legs=[60.0, 10.0],
+                p_cost_wheels=[40.0, 40.0],
+                p_mech_legs=[30.0, 5.0],
+                p_mech_wheels=[20.0, 25.0],
+                p_joule_legs=[1.0, 1.0],
+            ),
+        )
     s = m.summary(robot_mass=15.0)
     # v_x errors: robot 0 always -0.1; robot 1 +0.1, +0.3 alternating -> squares 0.01 and (0.01 + 0.09) / 2 = 0.05
     assert s["mse"] == pytest.approx((0.01 + 0.05) / 2)
@@ -108,8 +117,11 @@ def test_run_task_pushes_on_schedule_and_holds_its_commands(tmp_path, save_check
 
     r = run_task(pr, "vy", seconds=2.1, settle=0.1, max_push=0.6, push_interval=0.5, progress=progress)
     # A push draws a new impulse for every robot; a robot that falls and is reset has its impulse zeroed alone.
-    changed = [k + 1 for k in range(1, len(seen))
-               if bool((seen[k] != seen[k - 1]).any(1).all()) and bool((seen[k] != 0).any(1).all())]  # fmt: skip
+    changed = [
+        k + 1
+        for k in range(1, len(seen))
+        if bool((seen[k] != seen[k - 1]).any(1).all()) and bool((seen[k] != 0).any(1).all())
+    ]
     assert changed == [26, 51, 76, 101]  # policy steps 25, 50, 75, 100 of 0.02 s
     assert max(float(v.abs().max()) for v in seen) <= 0.6 and r.max_push == 0.6
     expected = spread_commands("vy", 3).to(env.device)
@@ -129,8 +141,15 @@ def test_run_task_names_the_commands_of_the_robots_that_fell(tmp_path, save_chec
     save_checkpoint(tmp_path / "model_0.pt", cfg)
     pr = make_policy_runner(str(tmp_path / "model_0.pt"), None, num_envs=6)
     env, lengths, PUSH = pr.env, [], 1.0  # m/s every 0.3 s: an untrained policy keeps 2 of 6 robots up
-    r = run_task(pr, "vy", seconds=2.0, settle=0.1, max_push=PUSH, push_interval=0.3,
-                 progress=lambda k, n: lengths.append(env.episode_length_buf.clone()))  # fmt: skip
+    r = run_task(
+        pr,
+        "vy",
+        seconds=2.0,
+        settle=0.1,
+        max_push=PUSH,
+        push_interval=0.3,
+        progress=lambda k, n: lengths.append(env.episode_length_buf.clone()),
+    )
     restarted = torch.stack([lengths[k] < lengths[k - 1] for k in range(1, len(lengths))]).any(0)
     assert 0 < int(restarted.sum()) < 6, "the pushes should topple some robots and not others"
     expected = spread_commands("vy", 6)[restarted.cpu(), 1]
@@ -164,12 +183,17 @@ def test_a_loaded_checkpoint_starts_the_same_whatever_torch_drew_before(tmp_path
 def _settings(env) -> dict:
     """What an evaluation protocol may change on an env and must give back."""
     sel = env.gait_selector
-    return {"collect": env.collect_training_data, "max_episode_length": env.max_episode_length,
-            "push_interval_steps": env.push_interval_steps, "held": env.held_commands,
-            "forced_gait": sel.forced_gait, "steps": env.common_step_counter,
-            "last_active": None if sel.last_active is None else sel.last_active.tolist(),
-            "rng": [env.gen.get_state().tolist(), sel.gen.get_state().tolist()],
-            "requested": env.requested_gait().tolist()}  # fmt: skip
+    return {
+        "collect": env.collect_training_data,
+        "max_episode_length": env.max_episode_length,
+        "push_interval_steps": env.push_interval_steps,
+        "held": env.held_commands,
+        "forced_gait": sel.forced_gait,
+        "steps": env.common_step_counter,
+        "last_active": None if sel.last_active is None else sel.last_active.tolist(),
+        "rng": [env.gen.get_state().tolist(), sel.gen.get_state().tolist()],
+        "requested": env.requested_gait().tolist(),
+    }
 
 
 def test_protocols_run_back_to_back_on_one_env_give_what_a_fresh_env_gives(tmp_path, save_checkpoint):
@@ -212,13 +236,15 @@ def test_each_protocol_records_a_command_line_that_gives_back_its_options(name):
 def test_protocol_options_are_checked_before_any_work(tmp_path):
     from wqwarp.eval.protocols import make_options, run_protocol
 
-    for name, bad, match in (("tracking", {"tasks": "jump"}, "unknown task"),
-                             ("push", {"push_levels": "0,0.5"}, "push-levels"),
-                             ("sim2sim", {"physics": "bullet"}, "--physics"),
-                             ("timeline", {"segments": "0.5,0:1"}, "bad segment"),
-                             ("energymap", {"grid": 1}, "--grid"),
-                             ("lateral", {"commands": "left"}, "--commands"),
-                             ("tracking", {"json": str(tmp_path / "no" / "r.json")}, "does not exist")):  # fmt: skip
+    for name, bad, match in (
+        ("tracking", {"tasks": "jump"}, "unknown task"),
+        ("push", {"push_levels": "0,0.5"}, "push-levels"),
+        ("sim2sim", {"physics": "bullet"}, "--physics"),
+        ("timeline", {"segments": "0.5,0:1"}, "bad segment"),
+        ("energymap", {"grid": 1}, "--grid"),
+        ("lateral", {"commands": "left"}, "--commands"),
+        ("tracking", {"json": str(tmp_path / "no" / "r.json")}, "does not exist"),
+    ):
         with pytest.raises(ValueError, match=match):
             run_protocol(name, make_options(name, checkpoint=str(tmp_path / "never_read.pt"), **bad))
     with pytest.raises(ValueError, match="unknown protocol"):
@@ -280,22 +306,28 @@ def test_protocols_name_the_gaits_of_the_checkpoints_library(tmp_path, save_chec
     names = ["driving", "trotting", "walking", "pacing"]
     log = io.StringIO()
 
-    track = run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vx", num_envs=2, seconds=2.1,
-                                                  force_gait="pacing"), log)  # fmt: skip
+    track = run_protocol(
+        "tracking",
+        make_options("tracking", checkpoint=path, tasks="vx", num_envs=2, seconds=2.1, force_gait="pacing"),
+        log,
+    )
     r = track["results"][0]
     assert list(r["predicted_power"]) == names and r["gait_usage"]["pacing"] > 0.5
     with pytest.raises(ValueError, match="--force-gait: unknown gait 'bounding'; known gaits: driving, .*, pacing"):
-        run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vx", num_envs=1, seconds=2.1,
-                                              force_gait="bounding"), log)  # fmt: skip
+        run_protocol(
+            "tracking",
+            make_options("tracking", checkpoint=path, tasks="vx", num_envs=1, seconds=2.1, force_gait="bounding"),
+            log,
+        )
 
-    timeline = run_protocol("timeline", make_options("timeline", checkpoint=path, robots=1,
-                                                     segments="0.3,0,0:0.1"), log)  # fmt: skip
+    timeline = run_protocol(
+        "timeline", make_options("timeline", checkpoint=path, robots=1, segments="0.3,0,0:0.1"), log
+    )
     assert timeline["gait_names"] == names and list(timeline["segments"][0]["gait_usage"]) == names
     assert set(timeline["series_robot0"]["gait_running"]) <= set(names)
 
     png = tmp_path / "map.png"
-    emap = run_protocol("energymap", make_options("energymap", checkpoint=path, grid=2, seconds=0.2,
-                                                  png=str(png)), log)  # fmt: skip
+    emap = run_protocol("energymap", make_options("energymap", checkpoint=path, grid=2, seconds=0.2, png=str(png)), log)
     cell = emap["cells"][0]
     assert list(cell["measured_p_cost"]) == list(cell["predicted_p_cost"]) == names and png.stat().st_size > 0
 
@@ -322,44 +354,60 @@ def test_the_selection_criterion_can_be_swapped_at_evaluation_on_one_policy(tmp_
     log = io.StringIO()
     usage = {}
     for criterion in (None, "power"):
-        out = run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vy", num_envs=2, seconds=3.0,
-                                                    criterion=criterion), log)  # fmt: skip
+        out = run_protocol(
+            "tracking",
+            make_options("tracking", checkpoint=path, tasks="vy", num_envs=2, seconds=3.0, criterion=criterion),
+            log,
+        )
         assert out["config"]["predictor"]["criterion"] == (criterion or "kinematic")
         usage[criterion] = out["results"][0]["gait_usage"]["driving"]
     assert usage[None] == 0.0 and usage["power"] > 0.9, usage
     selected, measured = {}, {}
     for criterion in (None, "power"):  # the energy map's per-cell choice follows the same rule
-        emap = run_protocol("energymap", make_options("energymap", checkpoint=path, grid=2, seconds=0.4,
-                                                      criterion=criterion), log)  # fmt: skip
+        emap = run_protocol(
+            "energymap", make_options("energymap", checkpoint=path, grid=2, seconds=0.4, criterion=criterion), log
+        )
         selected[criterion] = {c["selected"] for c in emap["cells"]}  # every cell: |v_y| or |w| = 0.7
         measured[criterion] = [c["measured_p_cost"] for c in emap["cells"]]
     assert selected == {None: {"walking"}, "power": {"driving"}}
     # each robot runs its forced gait from the reset, not the gait the rule chose before: the rule changes no
     # measurement
     assert measured[None] == measured["power"]
-    with pytest.raises(ValueError, match="criterion kinematic_feasible needs a tracking head; model_0.pt was trained "
-                                         "with kinematic and has none"):  # fmt: skip
-        run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vy", num_envs=1, seconds=2.1,
-                                              criterion="kinematic_feasible"), log)  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match="criterion kinematic_feasible needs a tracking head; model_0.pt was trained with kinematic and has none",
+    ):
+        run_protocol(
+            "tracking",
+            make_options(
+                "tracking", checkpoint=path, tasks="vy", num_envs=1, seconds=2.1, criterion="kinematic_feasible"
+            ),
+            log,
+        )
 
 
 def test_the_energy_maps_rule_summary_on_hand_values():
     from wqwarp.eval.energy_map import rule_summary
 
     def cell(err, pred_err, selected, winner, fell=()):
-        return {"sq_velocity_error": dict(zip("dtw", err, strict=True)), "selected": selected,
-                "predicted_sq_velocity_error": dict(zip("dtw", pred_err, strict=True)),
-                "measured_winner_tracking": winner, "fell": {g: g in fell for g in "dtw"}}  # fmt: skip
+        return {
+            "sq_velocity_error": dict(zip("dtw", err, strict=True)),
+            "selected": selected,
+            "predicted_sq_velocity_error": dict(zip("dtw", pred_err, strict=True)),
+            "measured_winner_tracking": winner,
+            "fell": {g: g in fell for g in "dtw"},
+        }
 
-    cells = [cell((0.01, 0.02, 0.03), (0.20, 0.10, 0.30), "t", "d"),  # trots where driving tracks cheaper
-             cell((0.50, 0.04, 0.30), (0.01, 0.05, 0.20), "t", "t"),  # lateral: driving is no candidate
-             cell((0.50, 0.40, 0.30), (0.30, 0.20, 0.40), "w", None, fell=("w",))]  # nothing tracks; w fell
+    cells = [
+        cell((0.01, 0.02, 0.03), (0.20, 0.10, 0.30), "t", "d"),  # trots where driving tracks cheaper
+        cell((0.50, 0.04, 0.30), (0.01, 0.05, 0.20), "t", "t"),  # lateral: driving is no candidate
+        cell((0.50, 0.40, 0.30), (0.30, 0.20, 0.40), "w", None, fell=("w",)),
+    ]  # nothing tracks; w fell
     kinematic = torch.tensor([[True, True, True], [False, True, True], [False, True, True]])
     out = rule_summary(cells, kinematic)
-    assert {k: out[k] for k in ("selects_cheapest_tracking", "cells_with_a_tracking_gait",
-                                "selects_a_tracking_gait")} == {"selects_cheapest_tracking": 1,
-                                                                "cells_with_a_tracking_gait": 2,
-                                                                "selects_a_tracking_gait": 2}  # fmt: skip
+    assert {
+        k: out[k] for k in ("selects_cheapest_tracking", "cells_with_a_tracking_gait", "selects_a_tracking_gait")
+    } == {"selects_cheapest_tracking": 1, "cells_with_a_tracking_gait": 2, "selects_a_tracking_gait": 2}
     # head argmin vs measured best among the candidates: cell 0 t vs d (no), cell 1 t vs t (yes), cell 2 t vs w (no)
     assert out["tracking_head"]["argmin_is_best_tracker"] == 1
     assert out["tracking_head"]["robot_cells_tracking"] == 4  # d, t, w of cell 0 and t of cell 1
@@ -380,8 +428,15 @@ def test_the_lateral_probe_reports_per_command_and_per_gait(tmp_path, save_check
     cfg.sim.num_envs = 1
     torch.manual_seed(0)
     save_checkpoint(tmp_path / "model_0.pt", cfg)
-    opts = make_options("lateral", checkpoint=str(tmp_path / "model_0.pt"), commands="-0.3,0.3",
-                        robots_per_command=2, seconds=2.5, per_gait=True, json=str(tmp_path / "lat.json"))
+    opts = make_options(
+        "lateral",
+        checkpoint=str(tmp_path / "model_0.pt"),
+        commands="-0.3,0.3",
+        robots_per_command=2,
+        seconds=2.5,
+        per_gait=True,
+        json=str(tmp_path / "lat.json"),
+    )
     r = run_protocol("lateral", opts, log=io.StringIO())
     assert set(r["runs"]) == {"selected", "driving", "trotting", "walking"}
     for gait in ("driving", "trotting", "walking"):
@@ -426,8 +481,9 @@ def test_the_nominal_gait_with_zero_residual_tracks_forward_commands_on_little_p
     cfg.sim.num_envs = 1
     path = str(save_checkpoint(tmp_path / "model_0.pt", cfg))
     log = io.StringIO()
-    opts = make_options("tracking", checkpoint=path, tasks="stand,vx", num_envs=3, seconds=4.0, force_gait="driving",
-                        zero_residual=True)  # fmt: skip
+    opts = make_options(
+        "tracking", checkpoint=path, tasks="stand,vx", num_envs=3, seconds=4.0, force_gait="driving", zero_residual=True
+    )
     out = run_protocol("tracking", opts, log)
     assert out["zero_residual"] and out["forced_gait"] == "driving" and "zero residual" in log.getvalue()
     by = {r["task"]: r for r in out["results"]}
@@ -442,8 +498,11 @@ def test_the_nominal_gait_with_zero_residual_tracks_forward_commands_on_little_p
     (tmp_path / "base").mkdir()
     path = str(save_checkpoint(tmp_path / "base" / "model_0.pt", base))
     with pytest.raises(ValueError, match="--zero-residual needs a preset with a nominal gait"):
-        run_protocol("tracking", make_options("tracking", checkpoint=path, tasks="vx", num_envs=1, seconds=2.1,
-                                              zero_residual=True), log)  # fmt: skip
+        run_protocol(
+            "tracking",
+            make_options("tracking", checkpoint=path, tasks="vx", num_envs=1, seconds=2.1, zero_residual=True),
+            log,
+        )
 
 
 def test_a_protocol_prints_to_the_stdout_of_its_call_not_of_its_import(monkeypatch):
@@ -470,7 +529,8 @@ def test_a_protocol_prints_to_the_stdout_of_its_call_not_of_its_import(monkeypat
 
 
 def test_the_wheel_probe_samples_the_training_noise_around_the_mean_with_and_without_its_wheel_offsets(
-        tmp_path, save_checkpoint):  # fmt: skip
+    tmp_path, save_checkpoint
+):
     """tools/studies/wheel_residual_probe.py --noise --held-wheels: the deterministic pair as before (zeroed: wheel
     actions exactly 0), the held-wheel pair (constant wheel actions, the policy's mean), and a sampled pair that
     draws the policy's learned std (an untrained policy: the initial std on every action) around the mean with and
@@ -483,11 +543,34 @@ def test_the_wheel_probe_samples_the_training_noise_around_the_mean_with_and_wit
     torch.manual_seed(0)
     path = str(save_checkpoint(tmp_path / "model_0.pt", cfg))
     out_json = tmp_path / "probe.json"
-    assert probe.main(["--checkpoint", path, "--robots", "2", "--seconds", "2.6", "--noise", "--held-wheels",
-                       "--json", str(out_json)]) == 0  # fmt: skip
+    assert (
+        probe.main(
+            [
+                "--checkpoint",
+                path,
+                "--robots",
+                "2",
+                "--seconds",
+                "2.6",
+                "--noise",
+                "--held-wheels",
+                "--json",
+                str(out_json),
+            ]
+        )
+        == 0
+    )
     res = json.loads(out_json.read_text())["results"]
-    assert set(res) == {"policy", "zero_wheel_residuals", "zero_leg_residuals", "nominal", "policy_sampled",
-                        "zero_wheel_mean_sampled", "policy_held_wheels", "nominal_held_wheels"}
+    assert set(res) == {
+        "policy",
+        "zero_wheel_residuals",
+        "zero_leg_residuals",
+        "nominal",
+        "policy_sampled",
+        "zero_wheel_mean_sampled",
+        "policy_held_wheels",
+        "nominal_held_wheels",
+    }
     held = res["policy"]["wheel_action"]  # --held-wheels: every robot and step on the policy's mean wheel action
     for name in ("policy_held_wheels", "nominal_held_wheels"):
         assert res[name]["wheel_action"] == pytest.approx(held, abs=1e-4)
@@ -514,8 +597,27 @@ def test_a_wheel_speed_mismatch_costs_power_that_an_agreeing_offset_does_not(tmp
     cfg.sim.num_envs = 1
     path = str(save_checkpoint(tmp_path / "model_0.pt", cfg))
     out_json = tmp_path / "mismatch.json"
-    assert mismatch.main(["--checkpoint", path, "--robots", "2", "--seconds", "3", "--offsets", "0.5", "--patterns",
-                          "common,fore_aft", "--wheel-ki", "0", "--json", str(out_json)]) == 0  # fmt: skip
+    assert (
+        mismatch.main(
+            [
+                "--checkpoint",
+                path,
+                "--robots",
+                "2",
+                "--seconds",
+                "3",
+                "--offsets",
+                "0.5",
+                "--patterns",
+                "common,fore_aft",
+                "--wheel-ki",
+                "0",
+                "--json",
+                str(out_json),
+            ]
+        )
+        == 0
+    )
     out = json.loads(out_json.read_text())
     assert out["wheel_pid"]["wheel_ki"] == 0.0
     rows = {r["pattern"]: r for r in out["rollouts"]}
@@ -527,8 +629,25 @@ def test_a_wheel_speed_mismatch_costs_power_that_an_agreeing_offset_does_not(tmp
     assert rows["fore_aft"]["p_cost_wheels"] > max(5.0, 8.0 * rows["common"]["p_cost_wheels"])
     torque = rows["fore_aft"]["wheel_torque"]
     assert torque[0] > 0 and torque[1] > 0 and torque[2] < 0 and torque[3] < 0  # the front pushes, the rear brakes
-    assert mismatch.main(["--checkpoint", path, "--robots", "1", "--seconds", "2.2", "--offsets", "0.5", "--patterns",
-                          "one", "--json", str(out_json)]) == 0  # fmt: skip
+    assert (
+        mismatch.main(
+            [
+                "--checkpoint",
+                path,
+                "--robots",
+                "1",
+                "--seconds",
+                "2.2",
+                "--offsets",
+                "0.5",
+                "--patterns",
+                "one",
+                "--json",
+                str(out_json),
+            ]
+        )
+        == 0
+    )
     assert json.loads(out_json.read_text())["wheel_pid"]["wheel_ki"] == cfg.sim.wheel_ki
     for bad in (["--offsets", "0,0.5"], ["--offsets", "x"], ["--patterns", "sideways"], ["--wheel-ki", "-1"]):
         assert mismatch.main(["--checkpoint", path, *bad]) == 2

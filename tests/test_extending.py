@@ -32,8 +32,13 @@ def wheel_speed(inp: RewardInputs, i: int, v: wp.vec3, w: wp.vec3, g: wp.vec3) -
     return r
 
 
-WHEEL_SPEED = RewardTerm("wheel_speed", -1e-3, "||qd_wheels||^2 [rad^2/s^2].", func=wheel_speed,
-                         reference=lambda x: (x["actuated_qd"][:, 12:] ** 2).sum(1))  # fmt: skip
+WHEEL_SPEED = RewardTerm(
+    "wheel_speed",
+    -1e-3,
+    "||qd_wheels||^2 [rad^2/s^2].",
+    func=wheel_speed,
+    reference=lambda x: (x["actuated_qd"][:, 12:] ** 2).sum(1),
+)
 
 
 def test_a_fourth_gait_and_a_thirteenth_reward_term_train_one_iteration():

@@ -36,8 +36,11 @@ def test_windows_are_labelled_with_the_realised_mean_and_cut_windows_are_dropped
     lab.start(obs0, active, requested=torch.tensor([1, 1, 1, 2]))
     assert lab.open.tolist() == [True, True, True, False]
     no = torch.zeros(4, dtype=torch.bool)
-    p = [torch.tensor([1.0, 10.0, 100.0, 5.0]), torch.tensor([2.0, 20.0, 200.0, 5.0]),
-         torch.tensor([6.0, 30.0, 300.0, 5.0])]  # fmt: skip
+    p = [
+        torch.tensor([1.0, 10.0, 100.0, 5.0]),
+        torch.tensor([2.0, 20.0, 200.0, 5.0]),
+        torch.tensor([6.0, 30.0, 300.0, 5.0]),
+    ]
     err = [0.1 * q for q in p]  # squared tracking errors, labelled alongside
     out = lab.step(p[0], err[0], active, no)
     assert len(out[2]) == 0
@@ -112,8 +115,9 @@ def test_selector_holds_a_gait_for_the_decision_interval_and_labels_one_window_p
     assert labels == [pytest.approx(1.0), pytest.approx(5.0)]
     # A reset makes a robot due at once and drops its open window.
     sel.select(obs, running)
-    sel.record_step(torch.tensor([1.0, 1.0]), torch.zeros(2), running, cmd, torch.tensor([True, False]),
-                    torch.tensor([True, False]))  # fmt: skip
+    sel.record_step(
+        torch.tensor([1.0, 1.0]), torch.zeros(2), running, cmd, torch.tensor([True, False]), torch.tensor([True, False])
+    )
     sel.on_reset(torch.tensor([0]))
     assert sel.due.tolist() == [True, False] and sel.labeler.dropped == 1
 
@@ -266,8 +270,11 @@ def test_kinematic_feasible_sends_a_lateral_command_to_the_cheapest_stepping_gai
 
     err = torch.tensor([[0.01, 0.05, 0.12], [0.01, 0.05, 0.12], [0.01, 0.05, 0.12]])
     allowed = torch.tensor([[False, True, True], [True, True, True], [False, False, True]])
-    assert feasible_gaits(err, 0.02, allowed).tolist() == [[False, True, False], [True, False, False],
-                                                           [False, False, True]]  # fmt: skip
+    assert feasible_gaits(err, 0.02, allowed).tolist() == [
+        [False, True, False],
+        [True, False, False],
+        [False, False, True],
+    ]
     lateral_and_forward = torch.tensor([[0.0, 0.4, 0.0], [0.8, 0.0, 0.0]])
     picks = {}
     for criterion in ("feasible", "kinematic", "kinematic_feasible"):
@@ -342,8 +349,9 @@ def test_the_tracking_head_fits_the_error_of_the_gait_that_ran():
     # e_g(o) = gait g's squared error: driving fails a lateral command o1 (e = o1^2), the legged gaits track it.
     torch.manual_seed(1)
     n = 4000
-    sel = _selector(1, learning_rate=3e-3, batch_size=256, updates_per_iteration=50, buffer_size=n,
-                    criterion="feasible")  # fmt: skip
+    sel = _selector(
+        1, learning_rate=3e-3, batch_size=256, updates_per_iteration=50, buffer_size=n, criterion="feasible"
+    )
     x = torch.rand(n, 2) * 2 - 1
     gait = torch.randint(0, 3, (n,))
     truth = torch.stack([x[:, 1] ** 2, 0.01 + 0.0 * x[:, 0], 0.02 + 0.01 * x[:, 0]], dim=1)
@@ -390,8 +398,9 @@ def test_requested_gait_has_one_home_and_the_critic_reads_the_running_gait():
     assert (env.active_gait() == 0).all()
 
 
-@pytest.mark.parametrize(("preset", "criterion"),
-                         [("ours", "power"), ("no_wheel_vel", "power"), ("ours", "kinematic_feasible")])
+@pytest.mark.parametrize(
+    ("preset", "criterion"), [("ours", "power"), ("no_wheel_vel", "power"), ("ours", "kinematic_feasible")]
+)
 def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(preset, criterion, tmp_path):
     import contextlib
     import io
@@ -418,8 +427,19 @@ def test_predictive_presets_train_two_iterations_and_round_trip_the_predictor(pr
     import sys
 
     root = __file__.rsplit("/tests/", 1)[0]
-    rep = subprocess.run([sys.executable, f"{root}/tools/gait_report.py", str(tmp_path), "--last", "1", "--json",
-                          str(tmp_path / "rep.json")], capture_output=True, text=True)  # fmt: skip
+    rep = subprocess.run(
+        [
+            sys.executable,
+            f"{root}/tools/gait_report.py",
+            str(tmp_path),
+            "--last",
+            "1",
+            "--json",
+            str(tmp_path / "rep.json"),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert rep.returncode == 0, rep.stderr
     logged = json.loads((tmp_path / "rep.json").read_text())["scalars"]
     assert logged["Gait/temperature"] == pytest.approx(scalars["Gait/temperature"])

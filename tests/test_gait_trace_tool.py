@@ -26,9 +26,14 @@ def test_trot_trace_columns_and_values(tmp_path):
     with open(out) as f:
         rows = list(csv.reader(f))
     header = rows[0]
-    assert header == (["t"] + [f"phase_{i}" for i in range(4)] + [f"swing_{i}" for i in range(4)]
-                      + [f"foot_z_{i}" for i in range(4)] + [f"wheel_vel_{i}" for i in range(4)]
-                      + [f"q_target_{i}" for i in range(12)])  # fmt: skip
+    assert header == (
+        ["t"]
+        + [f"phase_{i}" for i in range(4)]
+        + [f"swing_{i}" for i in range(4)]
+        + [f"foot_z_{i}" for i in range(4)]
+        + [f"wheel_vel_{i}" for i in range(4)]
+        + [f"q_target_{i}" for i in range(12)]
+    )
     data = np.array(rows[1:], dtype=float)
     assert data.shape == (100, 29)
     np.testing.assert_allclose(data[:, 0], np.arange(1, 101) * 0.02, atol=1e-6)
@@ -54,8 +59,10 @@ def test_bad_arguments_exit_2_without_writing(tmp_path):
 def test_plot_eval_draws_fig4_and_rejects_bad_input(tmp_path):
     import json
 
-    res = {"preset": "no_predictor", "results": [
-        {"task": t, "mse": m, "mean_p_cost": p} for t, m, p in (("vx", 0.01, 100.0), ("vy", 0.1, 60.0))]}  # fmt: skip
+    res = {
+        "preset": "no_predictor",
+        "results": [{"task": t, "mse": m, "mean_p_cost": p} for t, m, p in (("vx", 0.01, 100.0), ("vy", 0.1, 60.0))],
+    }
     f = tmp_path / "eval.json"
     f.write_text(json.dumps(res))
     out = tmp_path / "fig4.png"

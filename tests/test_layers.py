@@ -108,8 +108,9 @@ def test_no_module_imports_a_layer_above_its_own():
         if own == other or RANK[other] < RANK[own] or (module, target) in PENDING:
             continue
         where = "a peer layer" if RANK[other] == RANK[own] else "a layer above"
-        bad.append(f"{path.relative_to(ROOT)}:{line}: {module} (layer {own}) imports {target}: layer {other}, "
-                   f"{where} its own")  # fmt: skip
+        bad.append(
+            f"{path.relative_to(ROOT)}:{line}: {module} (layer {own}) imports {target}: layer {other}, {where} its own"
+        )
     assert not bad, "upward imports:" + "".join(f"{os.linesep}  {b}" for b in bad)
 
 

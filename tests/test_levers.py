@@ -17,8 +17,9 @@ from wqwarp.rl.config import CommandConfig, TrainConfig
 
 
 @wp.kernel
-def _stroke(phi: wp.array(dtype=float), df: wp.array(dtype=float), a: wp.array(dtype=float),
-            out: wp.array(dtype=float)):  # fmt: skip
+def _stroke(
+    phi: wp.array(dtype=float), df: wp.array(dtype=float), a: wp.array(dtype=float), out: wp.array(dtype=float)
+):
     i = wp.tid()
     out[i] = gait.lateral_stroke(phi[i], df[i], a[i])
 
@@ -36,8 +37,13 @@ def test_lateral_stroke_against_numpy_and_hand_values(device):
     df = np.array([0.4, 0.4, 0.4, 0.4, 0.4, 0.4, 0.0, 0.4], np.float32)
     a = np.array([0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, -0.05], np.float32)
     out = wp.zeros(len(phi), dtype=float, device=device)
-    wp.launch(_stroke, dim=len(phi), inputs=[wp.array(phi, device=device), wp.array(df, device=device),
-              wp.array(a, device=device)], outputs=[out], device=device)  # fmt: skip
+    wp.launch(
+        _stroke,
+        dim=len(phi),
+        inputs=[wp.array(phi, device=device), wp.array(df, device=device), wp.array(a, device=device)],
+        outputs=[out],
+        device=device,
+    )
     got = out.numpy()
     np.testing.assert_allclose(got, _stroke_np(phi, df, a), atol=1e-6)
     # lift-off at -A, mid-swing 0, touch-down +A (continuous into stance), mid-stance 0, back to -A at the wrap
@@ -87,8 +93,10 @@ def test_default_odds_draw_the_same_commands_as_before():
     cfg = CommandConfig()
     a = sample_commands(cfg, 64, torch.Generator().manual_seed(3), "cpu")
     gen = torch.Generator().manual_seed(3)
-    lo, hi = torch.tensor([r[0] for r in (cfg.vx_range, cfg.vy_range, cfg.wz_range)]), torch.tensor(
-        [r[1] for r in (cfg.vx_range, cfg.vy_range, cfg.wz_range)])  # fmt: skip
+    lo, hi = (
+        torch.tensor([r[0] for r in (cfg.vx_range, cfg.vy_range, cfg.wz_range)]),
+        torch.tensor([r[1] for r in (cfg.vx_range, cfg.vy_range, cfg.wz_range)]),
+    )
     raw = torch.stack([lo[i] + (hi[i] - lo[i]) * torch.rand(64, generator=gen) for i in range(3)], 1)
     u = torch.rand(64, generator=gen)
     axis = torch.randint(0, 3, (64,), generator=gen)

@@ -29,9 +29,17 @@ def _mirror(terms, dims, parts: dict[str, list[float]]) -> dict[str, list[float]
 
 def test_layouts_and_the_estimate_index():
     dims = Dims(20, 3)
-    assert ob.observation_layout(20) == [("base_ang_vel", 3), ("gravity", 3), ("leg_pos", 12), ("joint_vel", 16),
-                                         ("gait", 18), ("estimate", 3), ("command", 3), ("prev_action", 20),
-                                         ("prev2_action", 20)]  # fmt: skip
+    assert ob.observation_layout(20) == [
+        ("base_ang_vel", 3),
+        ("gravity", 3),
+        ("leg_pos", 12),
+        ("joint_vel", 16),
+        ("gait", 18),
+        ("estimate", 3),
+        ("command", 3),
+        ("prev_action", 20),
+        ("prev2_action", 20),
+    ]
     assert ob.estimate_index(dims) == 3 + 3 + 12 + 16 + 18
     assert ob.layout(PRIVILEGED_TERMS, Dims(16, 4))[-1] == ("gait_id", 4)
 
@@ -41,19 +49,31 @@ def test_mirroring_twice_is_the_identity(dims):
     x = torch.randn(5, sum(t.dim(dims) for t in ACTOR_TERMS))
     p = torch.randn(5, sum(t.dim(dims) for t in PRIVILEGED_TERMS))
     a = torch.randn(5, dims.num_actions)
-    for v, m in ((x, ob.mirror_matrix(ACTOR_TERMS, dims)), (p, ob.mirror_matrix(PRIVILEGED_TERMS, dims)),
-                 (a, ob.mirror_tensors(ob.action_mirror(dims.num_actions)))):  # fmt: skip
+    for v, m in (
+        (x, ob.mirror_matrix(ACTOR_TERMS, dims)),
+        (p, ob.mirror_matrix(PRIVILEGED_TERMS, dims)),
+        (a, ob.mirror_tensors(ob.action_mirror(dims.num_actions))),
+    ):
         assert not torch.equal(ob.apply_mirror(v, *m), v)
         torch.testing.assert_close(ob.apply_mirror(ob.apply_mirror(v, *m), *m), v, rtol=0, atol=0)
 
 
 def test_the_mirror_of_each_term_maps_what_it_should():
     legs = [1.0, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]  # FR (hip, thigh, calf), FL, RR, RL
-    y = _mirror(ACTOR_TERMS, Dims(20, 3), {
-        "base_ang_vel": [1, 2, 3], "gravity": [0.1, 0.2, -0.9], "leg_pos": legs, "joint_vel": [*legs, 13, 14, 15, 16],
-        "gait": [*range(1, 19)], "estimate": [0.5, 0.3, 0.27], "command": [1, 0.5, 0.7],
-        "prev_action": [*range(1, 21)],
-    })  # fmt: skip
+    y = _mirror(
+        ACTOR_TERMS,
+        Dims(20, 3),
+        {
+            "base_ang_vel": [1, 2, 3],
+            "gravity": [0.1, 0.2, -0.9],
+            "leg_pos": legs,
+            "joint_vel": [*legs, 13, 14, 15, 16],
+            "gait": [*range(1, 19)],
+            "estimate": [0.5, 0.3, 0.27],
+            "command": [1, 0.5, 0.7],
+            "prev_action": [*range(1, 21)],
+        },
+    )
     assert y["base_ang_vel"] == [-1, 2, -3]  # roll and yaw rates change sign, pitch rate does not
     assert y["gravity"] == pytest.approx([0.1, -0.2, -0.9])
     assert y["leg_pos"] == [-4, 5, 6, -1, 2, 3, -10, 11, 12, -7, 8, 9]  # FR<->FL, RR<->RL, hips negated
@@ -63,8 +83,11 @@ def test_the_mirror_of_each_term_maps_what_it_should():
     # residual action: dphi (4) swap; dp per leg (x, y, z) swap with y negated; dv (4) swap
     assert y["prev_action"] == [2, 1, 4, 3, 8, -9, 10, 5, -6, 7, 14, -15, 16, 11, -12, 13, 18, 17, 20, 19]
     assert y["prev2_action"] == [0.0] * 20
-    p = _mirror(PRIVILEGED_TERMS, Dims(20, 3), {"lin_vel": [1, 2, 3], "wheel_force": [1, 2, 3, 4], "push": [0.3, 0.4],
-                                                "gait_id": [0, 1, 0]})  # fmt: skip
+    p = _mirror(
+        PRIVILEGED_TERMS,
+        Dims(20, 3),
+        {"lin_vel": [1, 2, 3], "wheel_force": [1, 2, 3, 4], "push": [0.3, 0.4], "gait_id": [0, 1, 0]},
+    )
     assert p["lin_vel"] == [1, -2, 3] and p["wheel_force"] == [2, 1, 4, 3] and p["push"] == pytest.approx([0.3, -0.4])
     assert p["gait_id"] == [0, 1, 0]
     base = ob.apply_mirror(torch.arange(1.0, 17.0), *ob.mirror_tensors(ob.action_mirror(16)))
@@ -73,9 +96,11 @@ def test_the_mirror_of_each_term_maps_what_it_should():
 
 def test_data_augmentation_has_rsl_rls_shape():
     dims = Dims(20, 3)
-    env = SimpleNamespace(obs_mirror=ob.mirror_matrix(ACTOR_TERMS, dims),
-                          privileged_mirror=ob.mirror_matrix(PRIVILEGED_TERMS, dims),
-                          action_mirror=ob.mirror_tensors(ob.action_mirror(20)))  # fmt: skip
+    env = SimpleNamespace(
+        obs_mirror=ob.mirror_matrix(ACTOR_TERMS, dims),
+        privileged_mirror=ob.mirror_matrix(PRIVILEGED_TERMS, dims),
+        action_mirror=ob.mirror_tensors(ob.action_mirror(20)),
+    )
     obs = TensorDict({"policy": torch.randn(6, 98), "privileged": torch.randn(6, 16)}, batch_size=[6])
     a = torch.randn(6, 20)
     obs2, a2 = ob.data_augmentation(env, obs=obs, actions=a)

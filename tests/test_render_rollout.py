@@ -43,8 +43,24 @@ def _frames(path) -> list[np.ndarray]:
 def test_gif_has_a_panel_per_robot_and_moving_frames(checkpoint, tmp_path):
     out = tmp_path / "run.gif"
     w, h = 128, 96
-    r = _run("--checkpoint", checkpoint, "--out", str(out), "--robots", "2", "--segments", "0.6,0,0:0.5;0,0,0.8:0.5",
-             "--fps", "25", "--width", str(w), "--height", str(h), "--seed", "3")  # fmt: skip
+    r = _run(
+        "--checkpoint",
+        checkpoint,
+        "--out",
+        str(out),
+        "--robots",
+        "2",
+        "--segments",
+        "0.6,0,0:0.5;0,0,0.8:0.5",
+        "--fps",
+        "25",
+        "--width",
+        str(w),
+        "--height",
+        str(h),
+        "--seed",
+        "3",
+    )
     assert r.returncode == 0, r.stderr
     assert "100%" in r.stdout and "MUJOCO_GL=" in r.stdout
     assert sorted(os.listdir(tmp_path)) == ["run.gif"]  # no temporary file left beside it

@@ -24,8 +24,13 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     args = ["--budget", "smoke", "--tasks", "ours,pmtg", "--work", str(work), "--out", str(out)]
     assert command.main(args) == 0
     ev, res = work / "eval", out / "results" / "smoke"
-    for name in ("RESULTS.md", "results/smoke/results.json", "results/smoke/tracking_power.png",
-                 "results/smoke/ours_s1_timeline.png", "results/smoke/ours_s1_energymap.png"):  # fmt: skip
+    for name in (
+        "RESULTS.md",
+        "results/smoke/results.json",
+        "results/smoke/tracking_power.png",
+        "results/smoke/ours_s1_timeline.png",
+        "results/smoke/ours_s1_energymap.png",
+    ):
         assert (out / name).is_file(), name
     for name in ("ours_s1_tracking", "pmtg_s1_tracking", "ours_s1_push", "pmtg_s1_push", "ours_s1_sim2sim"):
         d = _load(ev / f"{name}.json")  # provenance of every evaluation
@@ -79,15 +84,31 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     assert nom["zero_residual"] and nom["forced_gait"] == "driving" and "--zero-residual" in nom["command"]
     assert [r["task"] for r in nom["results"]] == ["stand", "vx"] and not (ev / "pmtg_s1_nominal.json").exists()
     assert summary["presets"]["ours"]["nominal"]["vx"]["mean_p_cost"]["mean"] == pytest.approx(
-        nom["results"][1]["mean_p_cost"])  # fmt: skip
+        nom["results"][1]["mean_p_cost"]
+    )
     assert "residual's energy, v_x task" in md and "| Ours, nominal gait alone | vx |" in md
 
     # A reproduction continued in another session without checkpoints: --import-from the results folder the report
     # wrote takes every task trained at this budget as the same task as done; the page has the same numbers.
     work2, out2 = tmp_path / "work2", tmp_path / "out2"
     capsys.readouterr()
-    assert command.main(["--budget", "smoke", "--presets", "ours,pmtg", "--work", str(work2), "--out", str(out2),
-                         "--import-from", str(res)]) == 0  # fmt: skip
+    assert (
+        command.main(
+            [
+                "--budget",
+                "smoke",
+                "--presets",
+                "ours,pmtg",
+                "--work",
+                str(work2),
+                "--out",
+                str(out2),
+                "--import-from",
+                str(res),
+            ]
+        )
+        == 0
+    )
     assert "imported ours_s1" in capsys.readouterr().out
     assert not list(work2.glob("train/*/model_*.pt"))  # nothing trained again
     assert (work2 / "train" / "ours_s1" / reproduce.IMPORTED).is_file()
@@ -147,20 +168,39 @@ def test_report_checks_the_headline_targets_against_hand_numbers(tmp_path):
     def stat(v):
         return {"mean": v, "std": 0.0, "n": 1}
 
-    ours = {"vx": {"mean_p_cost": stat(20.0), "mse": stat(0.0011), "predicted_power_running": stat(25.0),
-                   "gait_usage": {"driving": 0.9, "trotting": 0.1}},
-            "vy": {"mean_p_cost": stat(30.0), "mse": stat(0.04), "predicted_power_running": stat(33.0),
-                   "gait_usage": {"driving": 0.21, "trotting": 0.39, "walking": 0.40}},
-            "stand": {"mean_p_cost": stat(9.5)}}  # fmt: skip
+    ours = {
+        "vx": {
+            "mean_p_cost": stat(20.0),
+            "mse": stat(0.0011),
+            "predicted_power_running": stat(25.0),
+            "gait_usage": {"driving": 0.9, "trotting": 0.1},
+        },
+        "vy": {
+            "mean_p_cost": stat(30.0),
+            "mse": stat(0.04),
+            "predicted_power_running": stat(33.0),
+            "gait_usage": {"driving": 0.21, "trotting": 0.39, "walking": 0.40},
+        },
+        "stand": {"mean_p_cost": stat(9.5)},
+    }
     fixed = {"vx": {"mean_p_cost": stat(40.0), "mse": stat(0.001)}}
-    nominal = {"stand": {"mean_p_cost": stat(3.0), "mse": stat(0.0001)},
-               "vx": {"mean_p_cost": stat(16.0), "mse": stat(0.002)}}  # fmt: skip
+    nominal = {
+        "stand": {"mean_p_cost": stat(3.0), "mse": stat(0.0001)},
+        "vx": {"mean_p_cost": stat(16.0), "mse": stat(0.002)},
+    }
     ours["vx"]["mse"], ours["stand"]["mse"] = stat(0.0011), stat(0.0002)
-    summary = {"presets": {"ours": {"tracking": ours, "nominal": nominal}, "no_predictor": {"tracking": fixed}},
-               "figures": {"energymap": "ours_s1_energymap.png"}}  # fmt: skip
-    cells = [{"command": [0.5, 0.0, 0.0], "measured_p_cost": {"driving": 1.0}, "sq_velocity_error": {"driving": 0.0}},
-             {"command": [1.0, 0.0, 0.0], "measured_p_cost": {"driving": 30.0, "walking": 90.0},
-              "sq_velocity_error": {"driving": 0.02, "walking": 0.3}}]  # fmt: skip
+    summary = {
+        "presets": {"ours": {"tracking": ours, "nominal": nominal}, "no_predictor": {"tracking": fixed}},
+        "figures": {"energymap": "ours_s1_energymap.png"},
+    }
+    cells = [
+        {"command": [0.5, 0.0, 0.0], "measured_p_cost": {"driving": 1.0}, "sq_velocity_error": {"driving": 0.0}},
+        {
+            "command": [1.0, 0.0, 0.0],
+            "measured_p_cost": {"driving": 30.0, "walking": 90.0},
+            "sq_velocity_error": {"driving": 0.02, "walking": 0.3},
+        },
+    ]
     (tmp_path / "ours_s1_energymap.json").write_text(json.dumps({"cells": cells}))
     lines = _target_checks(summary, str(tmp_path))
     by = {line.split(":")[0]: line for line in lines}
@@ -200,13 +240,17 @@ def test_report_compares_power_among_the_methods_that_track_every_task():
     def method(vx, vy, wz):
         return {"tracking": {"vx": task(*vx, 0.34), "vy": task(*vy, 0.163), "wz": task(*wz, 0.163)}}
 
-    presets = {"ours": method((0.001, 15.0), (0.008, 30.0), (0.012, 15.0)),
-               "no_predictor": method((0.004, 30.0), (0.010, 30.0), (0.011, 15.0)),
-               "baseline": method((0.002, 20.0), (0.160, 10.0), (0.015, 15.0))}  # fmt: skip
+    presets = {
+        "ours": method((0.001, 15.0), (0.008, 30.0), (0.012, 15.0)),
+        "no_predictor": method((0.004, 30.0), (0.010, 30.0), (0.011, 15.0)),
+        "baseline": method((0.002, 20.0), (0.160, 10.0), (0.015, 15.0)),
+    }
     lines = _ordering_checks({"presets": presets})
     assert "- lowest mean power over the three tasks: paper Ours; here Baseline (15.0 W) -> differs" in lines
-    assert ("- ... among the methods that track all three tasks (MSE below half that of a robot that ignores the "
-            "command): here Ours (20.0 W; Ours w/o switching 25.0 W) -> agrees") in lines  # fmt: skip
+    assert (
+        "- ... among the methods that track all three tasks (MSE below half that of a robot that ignores the "
+        "command): here Ours (20.0 W; Ours w/o switching 25.0 W) -> agrees"
+    ) in lines
     assert any(x.startswith("- Baseline: v_y MSE 0.160, 98 %") and "not tracked" in x for x in lines)
     presets["baseline"]["tracking"]["vy"]["mse"]["mean"] = 0.05  # now it tracks: the cheapest outright
     lines = _ordering_checks({"presets": presets})
@@ -230,7 +274,9 @@ def test_import_restores_the_training_log_the_report_committed_gzipped(tmp_path,
             (src / log).write_text(f"{stem} progress\n")
     budget = reproduce.BUDGETS["smoke"]
     lines = reproduce.import_finished(str(src), str(work), budget, ["ours", "pmtg"], [1])
-    assert lines == ["imported ours_s1 from " + str(src) + ": 2 file(s)", "imported pmtg_s1 from " + str(src)
-                     + ": 2 file(s)"]  # fmt: skip
+    assert lines == [
+        "imported ours_s1 from " + str(src) + ": 2 file(s)",
+        "imported pmtg_s1 from " + str(src) + ": 2 file(s)",
+    ]
     for stem in ("ours_s1", "pmtg_s1"):
         assert (work / "train" / f"{stem}.log").read_text() == f"{stem} progress\n"

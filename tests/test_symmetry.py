@@ -73,8 +73,14 @@ def _make_mirrored(env: WheeledGo1Env, command) -> None:
     c = torch.tensor(command, dtype=torch.float32)
     env.hold_commands(torch.stack([c, c * torch.tensor([1.0, -1.0, -1.0])]))
     ng = env.nominal
-    for arr in (ng.clock, ng.phase, ng.wheel_velocity, ng.phase_residual, env.sim.wheel_integral,
-                env.sim.wheel_prev_error):  # fmt: skip
+    for arr in (
+        ng.clock,
+        ng.phase,
+        ng.wheel_velocity,
+        ng.phase_residual,
+        env.sim.wheel_integral,
+        env.sim.wheel_prev_error,
+    ):
         t = wp.to_torch(arr)
         t[1] = t[0, SWAP]
     env.prev_actions[1] = env.mirror_actions(env.prev_actions[0])
@@ -92,8 +98,15 @@ def _rollout(env: WheeledGo1Env, policy, steps: int) -> list[dict]:
         obs, _, dones, _ = env.step(a)
         assert not dones.any(), "a robot fell or timed out during the mirrored rollout"
         b = env.base_state()
-        out.append({"obs": obs["policy"].clone(), "priv": obs["privileged"].clone(), "yaw": b["yaw"].clone(),
-                    "pos": env.tv["joint_q"][:, :2].clone(), "vy": b["lin_vel"][:, 1].clone()})  # fmt: skip
+        out.append(
+            {
+                "obs": obs["policy"].clone(),
+                "priv": obs["privileged"].clone(),
+                "yaw": b["yaw"].clone(),
+                "pos": env.tv["joint_q"][:, :2].clone(),
+                "vy": b["lin_vel"][:, 1].clone(),
+            }
+        )
     return out
 
 
@@ -123,8 +136,9 @@ def _open_loop_yaw_gap(gait, command, lateral_gain, symmetric) -> tuple[float, l
     return max(abs(t["yaw"][0] + t["yaw"][1]).item() for t in traj), traj, env
 
 
-@pytest.mark.parametrize(("gait", "command", "lateral_gain"), [("driving", (0.5, 0.0, 0.5), 0.0),
-                                                               ("trotting", (0.0, 0.3, 0.0), 0.35)])  # fmt: skip
+@pytest.mark.parametrize(
+    ("gait", "command", "lateral_gain"), [("driving", (0.5, 0.0, 0.5), 0.0), ("trotting", (0.0, 0.3, 0.0), 0.35)]
+)
 def test_a_mirrored_open_loop_rollout_mirrors(gait, command, lateral_gain):
     """Zero residuals for 1 s on the symmetric variant (trunk COM centred): robot 1's trajectory is robot 0's
     mirrored (yaw, lateral velocity, the whole observation)."""
@@ -174,7 +188,11 @@ def test_a_symmetric_policy_gives_the_mirrored_action_and_a_mirrored_rollout():
 
 def test_symmetry_reaches_rsl_rls_ppo():
     cfg = TrainConfig(symmetry="both", mirror_loss_coeff=0.5).rsl_rl_dict()["algorithm"]["symmetry_cfg"]
-    assert cfg == {"use_data_augmentation": True, "use_mirror_loss": True, "mirror_loss_coeff": 0.5,
-                   "data_augmentation_func": "wqwarp.rl.observations:data_augmentation"}  # fmt: skip
+    assert cfg == {
+        "use_data_augmentation": True,
+        "use_mirror_loss": True,
+        "mirror_loss_coeff": 0.5,
+        "data_augmentation_func": "wqwarp.rl.observations:data_augmentation",
+    }
     assert TrainConfig().rsl_rl_dict()["algorithm"]["symmetry_cfg"] is None
     assert TrainConfig(symmetry="mirror_loss").symmetry_cfg()["use_data_augmentation"] is False

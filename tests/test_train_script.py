@@ -14,8 +14,13 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _run(script, *args, timeout=600):
-    return subprocess.run([sys.executable, os.path.join(ROOT, "train", script), *args], capture_output=True,
-                          text=True, cwd=ROOT, timeout=timeout)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, os.path.join(ROOT, "train", script), *args],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=timeout,
+    )
 
 
 def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
@@ -68,17 +73,43 @@ def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
     assert r.returncode == 2 and "already reached its 4 iterations" in r.stderr and not (log / "model_4.pt").exists()
 
     out_json = tmp_path / "eval.json"
-    r = _run("evaluate.py", "--checkpoint", str(log / "model_3.pt"), "--tasks", "vx", "--num-envs", "4",
-             "--seconds", "3", "--json", str(out_json))  # fmt: skip
+    r = _run(
+        "evaluate.py",
+        "--checkpoint",
+        str(log / "model_3.pt"),
+        "--tasks",
+        "vx",
+        "--num-envs",
+        "4",
+        "--seconds",
+        "3",
+        "--json",
+        str(out_json),
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     res = json.loads(out_json.read_text())["results"][0]
     assert res["task"] == "vx" and 0.0 <= res["upright"] <= 1.0 and res["mean_p_cost"] > 0
 
     # The paper's Fig. 5 for the checkpoint: per-segment numbers agree with the recorded time series.
     seq = tmp_path / "seq.json"
-    r = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "gait_sequence.py"), "--checkpoint",
-                        str(log / "model_3.pt"), "--robots", "1", "--segments", "0.5,0,0:0.5;0,0,0.4:0.5",
-                        "--json", str(seq)], capture_output=True, text=True, cwd=ROOT, timeout=600)  # fmt: skip
+    r = subprocess.run(
+        [
+            sys.executable,
+            os.path.join(ROOT, "tools", "gait_sequence.py"),
+            "--checkpoint",
+            str(log / "model_3.pt"),
+            "--robots",
+            "1",
+            "--segments",
+            "0.5,0,0:0.5;0,0,0.4:0.5",
+            "--json",
+            str(seq),
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     d = json.loads(seq.read_text())
     ser = d["series_robot0"]
@@ -89,16 +120,44 @@ def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
         assert sum(seg["gait_usage"].values()) == pytest.approx(1.0)
         running = ser["gait_running"][25 * k : 25 * (k + 1)]
         assert seg["gait_usage"]["driving"] == pytest.approx(running.count("driving") / 25)
-    r = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "gait_sequence.py"), "--checkpoint",
-                        str(log / "model_3.pt"), "--segments", "0.5,0:1"], capture_output=True, text=True,
-                       cwd=ROOT, timeout=600)  # fmt: skip
+    r = subprocess.run(
+        [
+            sys.executable,
+            os.path.join(ROOT, "tools", "gait_sequence.py"),
+            "--checkpoint",
+            str(log / "model_3.pt"),
+            "--segments",
+            "0.5,0:1",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=600,
+    )
     assert r.returncode == 2 and "bad segment" in r.stderr
 
     # The trained policy plays into a USD rollout (tools/export_usd.py --checkpoint).
     usd = tmp_path / "policy.usda"
-    r = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "export_usd.py"), "--out", str(usd),
-                        "--checkpoint", str(log / "model_3.pt"), "--num-envs", "2", "--seconds", "1",
-                        "--command", "0.5,0,0"], capture_output=True, text=True, cwd=ROOT, timeout=600)  # fmt: skip
+    r = subprocess.run(
+        [
+            sys.executable,
+            os.path.join(ROOT, "tools", "export_usd.py"),
+            "--out",
+            str(usd),
+            "--checkpoint",
+            str(log / "model_3.pt"),
+            "--num-envs",
+            "2",
+            "--seconds",
+            "1",
+            "--command",
+            "0.5,0,0",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     from pxr import Usd
 

@@ -14,10 +14,24 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 @pytest.mark.slow
 def test_short_training_run_tracks_forward_speed(tmp_path):
     log = tmp_path / "run"
-    r = subprocess.run([sys.executable, os.path.join(ROOT, "train", "ppo_newton.py"), "--preset", "no_predictor",
-                        "--num-envs", "128",
-                        "--max-iterations", "300", "--log-dir", str(log), "--no-export"],
-                       capture_output=True, text=True, cwd=ROOT, timeout=3600)  # fmt: skip
+    r = subprocess.run(
+        [
+            sys.executable,
+            os.path.join(ROOT, "train", "ppo_newton.py"),
+            "no_predictor",
+            "--num-envs",
+            "128",
+            "--max-iterations",
+            "300",
+            "--log-dir",
+            str(log),
+            "--no-export",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=3600,
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     from wqwarp.eval.loading import make_policy_runner
     from wqwarp.eval.tracking import run_task

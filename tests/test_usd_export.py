@@ -51,8 +51,14 @@ def _translations(stage, path):
 
 def test_prims_and_stage_metadata(trot_stage):
     s = trot_stage
-    for path in ["/World", "/World/ground", "/World/robot_0/trunk", "/World/robot_1/trunk",
-                 "/World/robot_0/FR_calf/collision", "/World/robot_0/trunk/collision_box"]:  # fmt: skip
+    for path in [
+        "/World",
+        "/World/ground",
+        "/World/robot_0/trunk",
+        "/World/robot_1/trunk",
+        "/World/robot_0/FR_calf/collision",
+        "/World/robot_0/trunk/collision_box",
+    ]:
         assert s.GetPrimAtPath(path).IsValid(), path
     for leg in ("FR", "FL", "RR", "RL"):
         assert s.GetPrimAtPath(f"/World/robot_1/{leg}_wheel/collision").GetTypeName() == "Cylinder"
@@ -113,8 +119,15 @@ def test_bodies_above_ground_and_moving(trot_stage):
 
 def test_custom_attributes_per_frame(trot_stage):
     robot = trot_stage.GetPrimAtPath("/World/robot_0")
-    for name in ("wqwarp:gait", "wqwarp:activeGait", "wqwarp:phase", "wqwarp:command", "wqwarp:baseVelocity",
-                 "wqwarp:pCost", "wqwarp:wheelContact"):  # fmt: skip
+    for name in (
+        "wqwarp:gait",
+        "wqwarp:activeGait",
+        "wqwarp:phase",
+        "wqwarp:command",
+        "wqwarp:baseVelocity",
+        "wqwarp:pCost",
+        "wqwarp:wheelContact",
+    ):
         attr = robot.GetAttribute(name)
         assert attr.IsCustom() and attr.GetNumTimeSamples() == FRAMES, name
     phase = np.array([list(robot.GetAttribute("wqwarp:phase").Get(t)) for t in range(FRAMES)])

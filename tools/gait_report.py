@@ -36,8 +36,7 @@ def summarise(run_dir: str, last: int) -> dict:
 
 @entry_point
 def main(argv=None) -> int:
-    ap = ArgumentParser(description=__doc__.split("\n\n")[0],
-                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    ap = ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("run", help="run directory written by train/ppo_newton.py")
     ap.add_argument("--last", type=int, default=100, help="iterations averaged at the end of the run (default 100)")
     ap.add_argument("--json", default=None, help="also write the summary to this JSON file")

@@ -37,8 +37,10 @@ def main(argv=None) -> int:
     from wqwarp.eval.report import draw_tracking_power
 
     one = lambda v: {"mean": v, "std": 0.0, "n": 1}  # noqa: E731 - a single run: no spread
-    stats = [(label, {t: {"mse": one(r["mse"]), "mean_p_cost": one(r["mean_p_cost"])} for t, r in res.items()})
-             for label, res in runs]  # fmt: skip
+    stats = [
+        (label, {t: {"mse": one(r["mse"]), "mean_p_cost": one(r["mean_p_cost"])} for t, r in res.items()})
+        for label, res in runs
+    ]
     draw_tracking_power(stats, args.out, tasks=tasks)
     print(f"wrote {args.out}")
     return 0

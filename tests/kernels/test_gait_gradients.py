@@ -146,11 +146,16 @@ def _gait_fn(gaits, t: float, amplitude: float = AMPLITUDE):
         wp.launch(
             open_loop_gait_targets,
             dim=(n, 4),
-            inputs=[pa, wp.array(offsets, dtype=float, device=dev), wp.array(command, dtype=float, device=dev),
-                    float(t), float(amplitude)],
+            inputs=[
+                pa,
+                wp.array(offsets, dtype=float, device=dev),
+                wp.array(command, dtype=float, device=dev),
+                float(t),
+                float(amplitude),
+            ],
             outputs=[leg, wheel],
             device=dev,
-        )  # fmt: skip
+        )
         return leg, wheel
 
     return fn

@@ -202,8 +202,16 @@ def test_smooth_abs_hand_values_and_slope_at_zero(device):
 def test_smooth_p_cost_gradient_including_zero(device):
     """Tape vs central differences w.r.t. tau, qd, eps_tau and eps_qd for smooth_abs and p_cost_term_smooth, with
     tau = 0 and qd = 0 among the rows (the exact |tau| |qd| has no derivative there)."""
-    x = np.array([[0.0, 2.0, 0.05, 0.1], [1.5, 0.0, 0.1, 0.05], [0.0, 0.0, 0.2, 0.3], [-3.0, 0.7, 0.05, 0.05],
-                  [0.02, -0.04, 0.05, 0.05], [4.0, -6.0, 0.5, 0.2]])  # fmt: skip
+    x = np.array(
+        [
+            [0.0, 2.0, 0.05, 0.1],
+            [1.5, 0.0, 0.1, 0.05],
+            [0.0, 0.0, 0.2, 0.3],
+            [-3.0, 0.7, 0.05, 0.05],
+            [0.02, -0.04, 0.05, 0.05],
+            [4.0, -6.0, 0.5, 0.2],
+        ]
+    )
 
     def fn(xa):  # only the smooth outputs (the exact p_cost column has kinks at the zero rows)
         out = _smooth_fn(xa)
@@ -271,8 +279,13 @@ def test_accumulate_power_p_cost_gradient(device):
 
     def p_cost(tau_a, qd_a):
         outs = [wp.zeros(w_count, dtype=wp.float32, device=device, requires_grad=True) for _ in range(11)]
-        wp.launch(accumulate_power, dim=w_count, inputs=[tau_a, qd_a, _i32(DOF_INDEX, device), weight], outputs=outs,
-                  device=device)  # fmt: skip
+        wp.launch(
+            accumulate_power,
+            dim=w_count,
+            inputs=[tau_a, qd_a, _i32(DOF_INDEX, device), weight],
+            outputs=outs,
+            device=device,
+        )
         return outs[0]
 
     g_tau, n_tau = _tape_grad(lambda a: p_cost(a, _f32(qd, device)), tau, device)
@@ -296,12 +309,19 @@ def test_accumulate_p_cost_taped_smooth_gradient_including_zero(device):
 
     def smooth(tau_a, qd_a):
         outs = [wp.zeros(2, dtype=wp.float32, device=device, requires_grad=True) for _ in range(3)]
-        wp.launch(accumulate_p_cost_taped, dim=2, inputs=[tau_a, qd_a, _i32(DOF_INDEX, device), 0.25, 0.05, 0.05],
-                  outputs=outs, device=device)  # fmt: skip
+        wp.launch(
+            accumulate_p_cost_taped,
+            dim=2,
+            inputs=[tau_a, qd_a, _i32(DOF_INDEX, device), 0.25, 0.05, 0.05],
+            outputs=outs,
+            device=device,
+        )
         return outs[2]
 
-    for grad, num in (_tape_grad(lambda a: smooth(a, _f32(qd, device)), tau, device),
-                      _tape_grad(lambda a: smooth(_f32(tau, device), a), qd, device)):  # fmt: skip
+    for grad, num in (
+        _tape_grad(lambda a: smooth(a, _f32(qd, device)), tau, device),
+        _tape_grad(lambda a: smooth(_f32(tau, device), a), qd, device),
+    ):
         assert np.all(np.isfinite(grad))
         np.testing.assert_allclose(grad, num, rtol=RTOL, atol=ATOL)
     assert not _tape_grad(lambda a: smooth(a, _f32(qd, device)), tau, device)[0][0, :4].any()  # slope 0 at tau = 0
@@ -318,11 +338,28 @@ def _actuation(in_place, device, leg_target, wheel_target, state, wheel_kd):
     q, qd, integral, prev, strength = state
     n = q.shape[0]
     g = GAINS
-    gains = actuation_gains(leg_kp=g["leg_kp"], leg_kd=g["leg_kd"], wheel_kp=g["wheel_kp"], wheel_ki=g["wheel_ki"],
-                            wheel_kd=wheel_kd, wheel_i_limit=g["wheel_i_limit"], dt=g["dt"])  # fmt: skip
+    gains = actuation_gains(
+        leg_kp=g["leg_kp"],
+        leg_kd=g["leg_kd"],
+        wheel_kp=g["wheel_kp"],
+        wheel_ki=g["wheel_ki"],
+        wheel_kd=wheel_kd,
+        wheel_i_limit=g["wheel_i_limit"],
+        dt=g["dt"],
+    )
     pid = [_f32(integral, device), _f32(prev, device)]
-    ins = [_f32(q, device), _f32(qd, device), _i32(np.arange(7, 23), device), _i32(DOF_INDEX, device), leg_target,
-           wheel_target, gains, _f32(C.TORQUE_LIMITS, device), _f32(strength, device), *pid]  # fmt: skip
+    ins = [
+        _f32(q, device),
+        _f32(qd, device),
+        _i32(np.arange(7, 23), device),
+        _i32(DOF_INDEX, device),
+        leg_target,
+        wheel_target,
+        gains,
+        _f32(C.TORQUE_LIMITS, device),
+        _f32(strength, device),
+        *pid,
+    ]
     tau = wp.zeros((n, 16), dtype=wp.float32, device=device, requires_grad=True)
     jf = wp.zeros((n, DOFS), dtype=wp.float32, device=device, requires_grad=True)
     pid_out = pid if in_place else [wp.zeros((n, 4), dtype=wp.float32, device=device) for _ in range(2)]
@@ -369,12 +406,21 @@ def test_apply_actuation_gradient_inside_the_limits(device, in_place, wheel_kd):
 @pytest.mark.parametrize(
     "in_place",
     [
-        pytest.param(True, id="in_place", marks=pytest.mark.xfail(strict=True, reason=(
-            "apply_actuation launched in place updates wheel_integral / wheel_prev_error; the tape's adjoint replays "
-            "the kernel on the updated state, so the clamp and saturation branches can differ from the forward pass"))),
+        pytest.param(
+            True,
+            id="in_place",
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason=(
+                    "apply_actuation launched in place updates wheel_integral / wheel_prev_error; the tape's adjoint "
+                    "replays the kernel on the updated state, so the clamp and saturation branches can differ from the "
+                    "forward pass"
+                ),
+            ),
+        ),
         pytest.param(False, id="taped"),
     ],
-)  # fmt: skip
+)
 def test_wheel_torque_gradient_at_saturation_and_at_the_integral_clamp(device, in_place):
     """Robot 0: a derivative kick (e = 2, e_prev = -1, kd = 0.01: kd de = 6 N m) saturates every wheel torque, so
     d tau / d qd_target = 0. Robot 1: the integral is 1.5 steps from its clamp (I + e dt stays inside, a second step
@@ -430,11 +476,25 @@ def test_compute_rewards_gradient(device):
         base += [wp.zeros(n, dtype=wp.float32, device=device, requires_grad=True) for _ in range(2)]
         wp.launch(compute_base_frame, dim=n, inputs=ins[:2], outputs=base, device=device)
         inp.base_lin_vel, inp.base_ang_vel, inp.projected_gravity = base[:3]
-        (inp.command, inp.action, inp.prev_action, inp.prev2_action, inp.actuated_qd, inp.prev_actuated_qd,
-         inp.torque_sq, inp.power_sq, inp.body_collision, weight, inp.sigma, inp.dt) = ins[2:]
+        (
+            inp.command,
+            inp.action,
+            inp.prev_action,
+            inp.prev2_action,
+            inp.actuated_qd,
+            inp.prev_actuated_qd,
+            inp.torque_sq,
+            inp.power_sq,
+            inp.body_collision,
+            weight,
+            inp.sigma,
+            inp.dt,
+        ) = ins[2:]
         inp.p_cost = _f32(np.zeros(n), device)  # read by no Table II term; every struct field must be set for the tape
-        inp.actuated_q, inp.joint_soft_low, inp.joint_soft_high = _f32(np.zeros((n, 16)), device), *(
-            _f32(np.zeros(12), device) for _ in range(2))
+        inp.actuated_q, inp.joint_soft_low, inp.joint_soft_high = (
+            _f32(np.zeros((n, 16)), device),
+            *(_f32(np.zeros(12), device) for _ in range(2)),
+        )
         kernel = make_reward_kernel(tuple(t.resolve() for t in TABLE_II))
         wp.launch(kernel, dim=n, inputs=[inp, weight], outputs=outs, device=device)  # fresh episode_sum every launch
         return outs[0]
@@ -445,8 +505,14 @@ def test_compute_rewards_gradient(device):
     wts = _seed(n).astype(np.float64)
     v, c = jqd[0].astype(np.float32).astype(np.float64), cmd[0].astype(np.float32).astype(np.float64)
     track = lambda k, a: table[k] * dt * 2 * sigma * (c[k] - a) * np.exp(-sigma * (c[k] - a) ** 2)  # noqa: E731
-    hand = [track(0, v[0]), track(1, v[1]), 2 * table[5] * dt * v[2], 2 * table[6] * dt * v[3],
-            2 * table[6] * dt * v[4], track(2, v[5])]  # fmt: skip
+    hand = [
+        track(0, v[0]),
+        track(1, v[1]),
+        2 * table[5] * dt * v[2],
+        2 * table[6] * dt * v[3],
+        2 * table[6] * dt * v[4],
+        track(2, v[5]),
+    ]
     np.testing.assert_allclose(grad[0, :6], wts[0] * np.asarray(hand), rtol=1e-4, atol=1e-9)
 
     strong = table.copy()

@@ -72,10 +72,18 @@ def test_accumulate_power_averages_substeps(device):
         t64, qd64 = tau.astype(np.float64), qd[:, QD_START : QD_START + 16].astype(np.float64)
         terms = np_terms(t64, qd64)  # (N, 16, 3): p_cost, p_mech, p_joule per joint
         legs, wheels = terms[:, :12].sum(1), terms[:, 12:].sum(1)
-        expected += np.concatenate([
-            legs + wheels, np.stack([legs[:, 0], wheels[:, 0], legs[:, 1], wheels[:, 1], legs[:, 2], wheels[:, 2]], 1),
-            (t64**2).sum(1, keepdims=True), ((t64 * qd64) ** 2).sum(1, keepdims=True),
-        ], 1) / substeps  # fmt: skip
+        expected += (
+            np.concatenate(
+                [
+                    legs + wheels,
+                    np.stack([legs[:, 0], wheels[:, 0], legs[:, 1], wheels[:, 1], legs[:, 2], wheels[:, 2]], 1),
+                    (t64**2).sum(1, keepdims=True),
+                    ((t64 * qd64) ** 2).sum(1, keepdims=True),
+                ],
+                1,
+            )
+            / substeps
+        )
     got = np.stack([s.numpy() for s in sums], -1)
     np.testing.assert_allclose(got, expected, rtol=1e-5, atol=1e-2)
 
@@ -97,8 +105,19 @@ def test_accumulate_power_hand_value(device):
             device=device,
         )
     got = dict(zip(POWER_OUTPUTS, [float(s.numpy()[0]) for s in sums], strict=True))
-    expected = dict(p_cost=10.0, p_mech=6.0, p_joule=7.2, p_cost_legs=6.0, p_cost_wheels=4.0, p_mech_legs=6.0,
-                    p_mech_wheels=0.0, p_joule_legs=7.2, p_joule_wheels=0.0, torque_sq=5.0, power_sq=52.0)  # fmt: skip
+    expected = dict(
+        p_cost=10.0,
+        p_mech=6.0,
+        p_joule=7.2,
+        p_cost_legs=6.0,
+        p_cost_wheels=4.0,
+        p_mech_legs=6.0,
+        p_mech_wheels=0.0,
+        p_joule_legs=7.2,
+        p_joule_wheels=0.0,
+        torque_sq=5.0,
+        power_sq=52.0,
+    )
     assert got == pytest.approx(expected, rel=1e-6)
     with pytest.raises(ValueError, match="output arrays"):
         launch_power(wp.array(tau), wp.array(qd), sums[:3], dof_index=wp.zeros(16, dtype=wp.int32), weight=1.0)

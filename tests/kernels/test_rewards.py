@@ -18,8 +18,23 @@ BASE = {"v": "base_lin_vel", "w": "base_ang_vel", "g": "projected_gravity"}
 
 def _inputs(device, x: dict) -> RewardInputs:
     inp = RewardInputs()
-    for f in ("v", "w", "g", "command", "action", "prev_action", "prev2_action", "actuated_qd", "prev_actuated_qd",
-              "torque_sq", "power_sq", "p_cost", "actuated_q", "joint_soft_low", "joint_soft_high"):  # fmt: skip
+    for f in (
+        "v",
+        "w",
+        "g",
+        "command",
+        "action",
+        "prev_action",
+        "prev2_action",
+        "actuated_qd",
+        "prev_actuated_qd",
+        "torque_sq",
+        "power_sq",
+        "p_cost",
+        "actuated_q",
+        "joint_soft_low",
+        "joint_soft_high",
+    ):
         setattr(inp, BASE.get(f, f), wp.array(np.asarray(x[f], np.float32), dtype=wp.float32, device=device))
     inp.body_collision = wp.array(x["body_collision"].astype(np.int32), dtype=wp.int32, device=device)
     inp.sigma, inp.dt = x["sigma"], x["dt"]
@@ -38,13 +53,26 @@ def _random_inputs(n: int = 5, seed: int = 0) -> dict:
     a, a1, a2 = (rng.normal(size=(n, 20)) for _ in range(3))
     # substep averages (4 substeps) of sum tau^2 and sum (tau qd)^2, as the simulator's power kernel provides them
     tau, qd_sub = rng.normal(size=(4, n, 16)) * 10, rng.normal(size=(4, n, 16)) * 5
-    return {"v": rng.normal(size=(n, 3)), "w": rng.normal(size=(n, 3)), "g": g, "command": rng.uniform(-1, 1, (n, 3)),
-            "action": a, "prev_action": a1, "prev2_action": a2, "actuated_qd": rng.normal(size=(n, 16)) * 5,
-            "prev_actuated_qd": rng.normal(size=(n, 16)) * 5, "torque_sq": (tau**2).sum(2).mean(0),
-            "power_sq": ((tau * qd_sub) ** 2).sum(2).mean(0), "p_cost": np.abs(tau * qd_sub).sum(2).mean(0),
-            "body_collision": rng.integers(0, 2, (n, 9)), "actuated_q": rng.normal(size=(n, 16)) * 2,
-            "joint_soft_low": soft_joint_limits(0.9)[0], "joint_soft_high": soft_joint_limits(0.9)[1],
-            "sigma": 4.0, "dt": 0.02}  # fmt: skip
+    return {
+        "v": rng.normal(size=(n, 3)),
+        "w": rng.normal(size=(n, 3)),
+        "g": g,
+        "command": rng.uniform(-1, 1, (n, 3)),
+        "action": a,
+        "prev_action": a1,
+        "prev2_action": a2,
+        "actuated_qd": rng.normal(size=(n, 16)) * 5,
+        "prev_actuated_qd": rng.normal(size=(n, 16)) * 5,
+        "torque_sq": (tau**2).sum(2).mean(0),
+        "power_sq": ((tau * qd_sub) ** 2).sum(2).mean(0),
+        "p_cost": np.abs(tau * qd_sub).sum(2).mean(0),
+        "body_collision": rng.integers(0, 2, (n, 9)),
+        "actuated_q": rng.normal(size=(n, 16)) * 2,
+        "joint_soft_low": soft_joint_limits(0.9)[0],
+        "joint_soft_high": soft_joint_limits(0.9)[1],
+        "sigma": 4.0,
+        "dt": 0.02,
+    }
 
 
 def _launch(device, terms, x, weights, times: int = 1):
@@ -63,8 +91,17 @@ def test_registry_derives_the_config_fields_and_every_term_has_a_formula_and_a_r
     assert REWARD_TERMS == tuple(t.name for t in TERMS) and len(TABLE_II) == 12
     assert all(t.weight == 0.0 for t in BEYOND_PAPER)  # every preset keeps the paper's reward
     fields = {f.name: f for f in dataclasses.fields(RewardConfig)}
-    assert list(fields) == [*REWARD_TERMS, "tracking_sigma", "only_positive", "soft_joint_limit", "ramp_terms",
-                            "ramp_start", "ramp_iterations", "ramp_gate_vy_error", "ramp_gate_window"]  # fmt: skip
+    assert list(fields) == [
+        *REWARD_TERMS,
+        "tracking_sigma",
+        "only_positive",
+        "soft_joint_limit",
+        "ramp_terms",
+        "ramp_start",
+        "ramp_iterations",
+        "ramp_gate_vy_error",
+        "ramp_gate_window",
+    ]
     for t in TERMS:
         assert fields[t.name].default == t.weight and fields[t.name].metadata["doc"] == t.doc
         assert t.reference is not None and t.doc
@@ -113,11 +150,26 @@ def test_hand_values_and_zero_weights(device):
     q[0, :12] = (low + high) / 2  # every leg joint mid-range, but the first hip 0.1 rad beyond its soft upper limit
     q[0, 0] = high[0] + 0.1  # (the hip range +-0.863 rad: soft limit 0.7767) and a wheel angle of no joint range
     q[0, 12] = 100.0
-    x = {"v": np.array([[0.5, 0.0, 0.0]]), "w": np.array([[0.0, 0.0, 0.2]]), "g": g,
-         "command": np.array([[0.5, 0.0, 0.2]]), "action": a, "prev_action": z20,
-         "prev2_action": z20, "actuated_qd": qd, "prev_actuated_qd": z16, "torque_sq": np.array([16 * 49.0]),
-         "power_sq": np.array([100.0]), "p_cost": np.array([25.0]), "body_collision": coll, "actuated_q": q,
-         "joint_soft_low": low, "joint_soft_high": high, "sigma": 4.0, "dt": dt}  # fmt: skip
+    x = {
+        "v": np.array([[0.5, 0.0, 0.0]]),
+        "w": np.array([[0.0, 0.0, 0.2]]),
+        "g": g,
+        "command": np.array([[0.5, 0.0, 0.2]]),
+        "action": a,
+        "prev_action": z20,
+        "prev2_action": z20,
+        "actuated_qd": qd,
+        "prev_actuated_qd": z16,
+        "torque_sq": np.array([16 * 49.0]),
+        "power_sq": np.array([100.0]),
+        "p_cost": np.array([25.0]),
+        "body_collision": coll,
+        "actuated_q": q,
+        "joint_soft_low": low,
+        "joint_soft_high": high,
+        "sigma": 4.0,
+        "dt": dt,
+    }
     _, term, _ = _launch(device, TERMS, x, weights)
     t = dict(zip(REWARD_TERMS, term[0], strict=True))
     assert t["track_vx"] == pytest.approx(2.0 * dt) and t["track_wz"] == pytest.approx(3.0 * dt)

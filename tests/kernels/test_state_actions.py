@@ -21,9 +21,13 @@ COM = np.array([0.0223, 0.002, -0.0005])
 
 def _quat_xyzw_to_mat(q):
     x, y, z, w = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])  # fmt: skip
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def test_mujoco_newton_round_trip_and_free_joint_convention(device):
@@ -70,8 +74,13 @@ def test_residual_targets_add_clip_and_invert(device):
     q = wp.zeros((n, 12), dtype=wp.float32, device=device)
     v = wp.zeros((n, 4), dtype=wp.float32, device=device)
     for use_nominal in (1, 0):
-        wp.launch(residual_targets, dim=(n, 4), inputs=[f(action), f(p_n, wp.vec3), f(v_n), use_nominal, 0.2, 0.3,
-                  5.0, 40.0], outputs=[dp, q, v], device=device)  # fmt: skip
+        wp.launch(
+            residual_targets,
+            dim=(n, 4),
+            inputs=[f(action), f(p_n, wp.vec3), f(v_n), use_nominal, 0.2, 0.3, 5.0, 40.0],
+            outputs=[dp, q, v],
+            device=device,
+        )
         base = 8.0 if use_nominal else 0.0
         np.testing.assert_allclose(v.numpy()[0], np.clip(base + 5.0 * np.array([1, -1, 20, 0]), -40, 40))
     np.testing.assert_allclose(dp.numpy()[0, 0], (0.02, 0.0, 0.05), atol=1e-6)
@@ -87,8 +96,13 @@ def test_joint_offset_targets(device):
     q = wp.zeros((1, 12), dtype=wp.float32, device=device)
     v = wp.zeros((1, 4), dtype=wp.float32, device=device)
     default = wp.array(np.asarray(C.DEFAULT_JOINT_POS[:12], np.float32), dtype=wp.float32, device=device)
-    wp.launch(joint_offset_targets, dim=1, inputs=[wp.array(a, dtype=wp.float32, device=device), default, 0.25, 5.0,
-              40.0], outputs=[q, v], device=device)  # fmt: skip
+    wp.launch(
+        joint_offset_targets,
+        dim=1,
+        inputs=[wp.array(a, dtype=wp.float32, device=device), default, 0.25, 5.0, 40.0],
+        outputs=[q, v],
+        device=device,
+    )
     assert q.numpy()[0, 1] == pytest.approx(C.DEFAULT_JOINT_POS[1] + 0.25)
     np.testing.assert_allclose(v.numpy()[0], (10.0, 40.0, 0.0, 0.0))
 
@@ -108,14 +122,20 @@ def test_compute_base_frame_against_numpy_and_hand_values(device):
     jqd = rng.normal(size=(n, 22)).astype(np.float32)
     jqd[0, 0:6] = [1.0, 0.0, 0.0, 0.0, 0.0, 0.5]
     outs = [wp.zeros((n, w) if w else n, dtype=wp.float32, device=device) for _, w in BASE_FRAME_OUTPUTS]
-    wp.launch(compute_base_frame, dim=n, inputs=[wp.array(jq, device=device), wp.array(jqd, device=device)],
-              outputs=outs, device=device)  # fmt: skip
+    wp.launch(
+        compute_base_frame,
+        dim=n,
+        inputs=[wp.array(jq, device=device), wp.array(jqd, device=device)],
+        outputs=outs,
+        device=device,
+    )
     got = {name: a.numpy() for (name, _), a in zip(BASE_FRAME_OUTPUTS, outs, strict=True)}
     q = jq[:, 3:7].astype(np.float64)
     np.testing.assert_allclose(got["base_lin_vel"], _quat_rotate_inv_numpy(q, jqd[:, 0:3]), atol=1e-5)
     np.testing.assert_allclose(got["base_ang_vel"], _quat_rotate_inv_numpy(q, jqd[:, 3:6]), atol=1e-5)
-    np.testing.assert_allclose(got["projected_gravity"], _quat_rotate_inv_numpy(q, np.tile([0, 0, -1.0], (n, 1))),
-                               atol=1e-5)  # fmt: skip
+    np.testing.assert_allclose(
+        got["projected_gravity"], _quat_rotate_inv_numpy(q, np.tile([0, 0, -1.0], (n, 1))), atol=1e-5
+    )
     np.testing.assert_array_equal(got["base_height"], jq[:, 2])
     x, y, z, w = q.T
     np.testing.assert_allclose(got["base_yaw"], np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)), atol=1e-5)

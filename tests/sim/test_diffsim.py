@@ -66,8 +66,13 @@ def test_featherstone_backend_refuses_domain_randomisation():
 
 
 def test_taped_gradients_through_contact_match_finite_differences():
-    roll = DiffRollout(SimConfig(num_envs=1, dt=0.002, decimation=10, backend="featherstone"), "trotting",
-                       (0.3, 0.0, 0.0), horizon=2, warmup=10)  # fmt: skip
+    roll = DiffRollout(
+        SimConfig(num_envs=1, dt=0.002, decimation=10, backend="featherstone"),
+        "trotting",
+        (0.3, 0.0, 0.0),
+        horizon=2,
+        warmup=10,
+    )
     res = roll.run()
     assert isinstance(res, RolloutResult) and not res.fell[0]
     assert 0.0 < res.p_cost_smooth[0] <= res.p_cost[0]
@@ -102,8 +107,14 @@ def test_anchored_contacts_keep_the_forces_and_fix_the_wheel_speed_gradient():
     calf (``anchored_contacts``), the forward rollout is the same and the gradient is within 15 %."""
     out = {}
     for anchored in (False, True):
-        roll = DiffRollout(SimConfig(num_envs=1, dt=0.002, decimation=10, backend="featherstone"), "trotting",
-                           (0.3, 0.0, 0.0), horizon=2, warmup=10, anchored_contacts=anchored)  # fmt: skip
+        roll = DiffRollout(
+            SimConfig(num_envs=1, dt=0.002, decimation=10, backend="featherstone"),
+            "trotting",
+            (0.3, 0.0, 0.0),
+            horizon=2,
+            warmup=10,
+            anchored_contacts=anchored,
+        )
         res = roll.run()
         tape = roll.gradients(p_cost_weight=np.ones(1))["wheel_offset"][0, 0]
         vals = []
@@ -122,8 +133,9 @@ def test_taped_gradients_in_free_fall_match_over_a_long_horizon_and_need_per_ste
     """No contact (ke = kd = kf = 0): the dynamics is smooth, so 40 substeps of tape match finite differences to
     ~1e-3. Without the per-substep copies of Featherstone's mass matrix and Cholesky factor every step's adjoint
     reads the last step's, and the gradient is off by more than 10x."""
-    cfg = SimConfig(num_envs=1, dt=0.005, decimation=4, backend="featherstone", contact_ke=0.0, contact_kd=0.0,
-                    contact_kf=0.0)  # fmt: skip
+    cfg = SimConfig(
+        num_envs=1, dt=0.005, decimation=4, backend="featherstone", contact_ke=0.0, contact_kd=0.0, contact_kf=0.0
+    )
     errors = []
     for swap in (True, False):
         roll = DiffRollout(cfg, "trotting", (0.3, 0.0, 0.0), horizon=10, warmup=5, _swap_matrices=swap)
@@ -135,8 +147,9 @@ def test_taped_gradients_in_free_fall_match_over_a_long_horizon_and_need_per_ste
 
 
 def test_gradients_need_a_recorded_rollout():
-    roll = DiffRollout(SimConfig(num_envs=1, dt=0.005, decimation=4, backend="featherstone"), "driving",
-                       horizon=1, warmup=0)  # fmt: skip
+    roll = DiffRollout(
+        SimConfig(num_envs=1, dt=0.005, decimation=4, backend="featherstone"), "driving", horizon=1, warmup=0
+    )
     roll.run(record=False)
     with pytest.raises(RuntimeError, match="recorded"):
         roll.gradients(p_cost_weight=np.ones(1))
@@ -154,8 +167,16 @@ def test_param_bounds_keep_the_gaits_apart():
 def test_optimize_runs_inside_the_bounds_and_keeps_its_best_iterate():
     from wqwarp.diff.tuning import optimize
 
-    cfg = TuneConfig(gait="trotting", vx=0.3, dt=0.005, horizon_s=0.04, warmup_s=0.1, windows=2, iterations=3,
-                     free=("h_s", "frequency"))  # fmt: skip
+    cfg = TuneConfig(
+        gait="trotting",
+        vx=0.3,
+        dt=0.005,
+        horizon_s=0.04,
+        warmup_s=0.1,
+        windows=2,
+        iterations=3,
+        free=("h_s", "frequency"),
+    )
     out = optimize(cfg)
     hist = out["history"]
     assert len(hist) == 4 and all(np.isfinite(h["J"]) for h in hist)
@@ -171,8 +192,13 @@ def test_optimize_runs_inside_the_bounds_and_keeps_its_best_iterate():
 def test_measure_equals_the_taped_window_forward():
     """``measure`` (untaped, scratch states, Newton's contact evaluation) over the taped horizon gives the same means
     as the taped run (per-substep states, anchored contact evaluation): same physics, same weights."""
-    roll = DiffRollout(SimConfig(num_envs=2, dt=0.005, decimation=4, backend="featherstone"), "walking",
-                       (0.3, 0.0, 0.0), horizon=5, warmup=10)  # fmt: skip
+    roll = DiffRollout(
+        SimConfig(num_envs=2, dt=0.005, decimation=4, backend="featherstone"),
+        "walking",
+        (0.3, 0.0, 0.0),
+        horizon=5,
+        warmup=10,
+    )
     a = roll.run(record=False)
     b = roll.measure(5 * roll.policy_dt)
     for name in ("p_cost", "p_cost_legs", "p_cost_wheels", "p_cost_smooth", "base_height"):
@@ -187,8 +213,15 @@ def test_objective_weights_are_the_gradient_of_j():
 
     def result(p, v, z):
         vel = np.stack([v, 0 * v, 0 * v], 1)
-        return RolloutResult(p_cost=p, p_cost_legs=p, p_cost_wheels=0 * p, p_cost_smooth=p, base_velocity=vel,
-                             base_height=z, fell=np.zeros(n, bool))  # fmt: skip
+        return RolloutResult(
+            p_cost=p,
+            p_cost_legs=p,
+            p_cost_wheels=0 * p,
+            p_cost_smooth=p,
+            base_velocity=vel,
+            base_height=z,
+            fell=np.zeros(n, bool),
+        )
 
     p, v, z = rng.uniform(50, 100, n), rng.uniform(0.2, 0.4, n), rng.uniform(0.2, 0.25, n)
     wpc, wv, wz, j = objective_weights(cfg, result(p, v, z), 0.22, n)

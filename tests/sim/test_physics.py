@@ -29,11 +29,14 @@ def _base_vel_body(sim, v=None):
     q = sim.joint_q.numpy()[:, 3:7]
     v = sim.joint_qd.numpy()[:, 0:3] if v is None else v
     x, y, z, w = q.T
-    rot = np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-    ], 1)  # fmt: skip
+    rot = np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        1,
+    )
     return np.einsum("nji,nj->ni", rot, v)
 
 
@@ -135,8 +138,9 @@ def test_base_frame_buffers_follow_steps_resets_and_writes(sim):
         x, y, z, w = q[:, 3:7].T
         np.testing.assert_allclose(sim.base_lin_vel.numpy(), _base_vel_body(sim), atol=1e-5)
         np.testing.assert_allclose(sim.base_height.numpy(), q[:, 2])
-        np.testing.assert_allclose(sim.base_yaw.numpy(), np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)),
-                                   atol=1e-5)  # fmt: skip
+        np.testing.assert_allclose(
+            sim.base_yaw.numpy(), np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)), atol=1e-5
+        )
         g = np.tile([0.0, 0.0, -1.0], (sim.num_envs, 1))
         np.testing.assert_allclose(sim.projected_gravity.numpy(), _base_vel_body(sim, g), atol=1e-5)
         np.testing.assert_allclose(sim.base_ang_vel.numpy(), _base_vel_body(sim, qd[:, 3:6]), atol=1e-5)

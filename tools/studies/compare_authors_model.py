@@ -29,9 +29,13 @@ import numpy as np
 from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.utils.io import output_problem
 
-SCENARIOS = {"standing": ("driving", (0.0, 0.0, 0.0)), "drive_0.5": ("driving", (0.5, 0.0, 0.0)),
-             "drive_1.0": ("driving", (1.0, 0.0, 0.0)), "trot_0": ("trotting", (0.0, 0.0, 0.0)),
-             "trot_0.3": ("trotting", (0.3, 0.0, 0.0))}  # fmt: skip
+SCENARIOS = {
+    "standing": ("driving", (0.0, 0.0, 0.0)),
+    "drive_0.5": ("driving", (0.5, 0.0, 0.0)),
+    "drive_1.0": ("driving", (1.0, 0.0, 0.0)),
+    "trot_0": ("trotting", (0.0, 0.0, 0.0)),
+    "trot_0.3": ("trotting", (0.3, 0.0, 0.0)),
+}
 LEGS = ("FR", "FL", "RR", "RL")
 
 
@@ -70,15 +74,20 @@ class AuthorsRobot:
         wid = [model.joint(f"{leg}_wheel_joint").id for leg in LEGS]
         self.qadr = np.array([model.jnt_qposadr[j] for j in jid + wid])
         self.vadr = np.array([model.jnt_dofadr[j] for j in jid + wid])
-        self.act = np.array([model.actuator(f"{leg}_{k}").id for leg in LEGS for k in ("hip", "thigh", "calf")]
-                            + [model.actuator(f"{leg}_wheel").id for leg in LEGS])  # fmt: skip
+        self.act = np.array(
+            [model.actuator(f"{leg}_{k}").id for leg in LEGS for k in ("hip", "thigh", "calf")]
+            + [model.actuator(f"{leg}_wheel").id for leg in LEGS]
+        )
         self.limit = np.asarray(C.TORQUE_LIMITS)
         self.d.qpos[self.qadr[:12]] = C.DEFAULT_JOINT_POS[:12]
         mujoco.mj_forward(model, self.d)
         # wheel axis in the world frame: +y rolls forward (as this project's wheels); theirs point -y on the right
         self.sign = np.sign([self.d.xaxis[j][1] for j in wid])
-        lowest = min(self.d.geom_xpos[g][2] - model.geom_size[g][0] for g in range(model.ngeom)
-                     if model.geom_bodyid[g] in [model.jnt_bodyid[j] for j in wid])  # fmt: skip
+        lowest = min(
+            self.d.geom_xpos[g][2] - model.geom_size[g][0]
+            for g in range(model.ngeom)
+            if model.geom_bodyid[g] in [model.jnt_bodyid[j] for j in wid]
+        )
         self.d.qpos[2] -= lowest  # wheels just touching the ground
         mujoco.mj_forward(model, self.d)
         self.integral = np.zeros(4)
@@ -94,8 +103,9 @@ class AuthorsRobot:
             step = e * c.dt
             u = c.wheel_kp * e + c.wheel_ki * self.integral
             grow = (np.abs(u) > self.limit[12:]) & (u * step > 0)
-            self.integral = np.where(grow, self.integral, np.clip(self.integral + step, -c.wheel_i_limit,
-                                                                   c.wheel_i_limit))  # fmt: skip
+            self.integral = np.where(
+                grow, self.integral, np.clip(self.integral + step, -c.wheel_i_limit, c.wheel_i_limit)
+            )
             tau[12:] = self.sign * (c.wheel_kp * e + c.wheel_ki * self.integral)
             tau = np.clip(tau, -self.limit, self.limit)
             self.d.ctrl[self.act] = tau
@@ -165,7 +175,7 @@ def main(argv=None) -> int:
     ap.add_argument("--warmup", type=float, default=1.0, help="seconds before averaging (default 1)")
     ap.add_argument("--seconds", type=float, default=3.0, help="seconds averaged (default 3)")
     ap.add_argument("--json", default=None, help="also write the results to this JSON file")
-    args = ap.parse_args(argv)  # fmt: skip
+    args = ap.parse_args(argv)
     names = args.scenarios.split(",")
     bad = [n for n in names if n not in SCENARIOS]
     if bad or args.dt <= 0 or args.decimation < 1 or args.seconds <= 0 or args.warmup < 0:
@@ -181,8 +191,11 @@ def main(argv=None) -> int:
         r = results[name] = run(name, args.mjcf, args.dt, args.decimation, args.warmup, args.seconds)
         for who in ("ours", "theirs"):
             x = r[who]
-            print(f"| {name} | {who} | {x['height']:.3f} | {x['v_x']:.2f} | {x['p_cost']:.1f} | "
-                  f"{x['p_cost_legs']:.1f} | {x['p_cost_wheels']:.1f} |", flush=True)  # fmt: skip
+            print(
+                f"| {name} | {who} | {x['height']:.3f} | {x['v_x']:.2f} | {x['p_cost']:.1f} | "
+                f"{x['p_cost_legs']:.1f} | {x['p_cost_wheels']:.1f} |",
+                flush=True,
+            )
     if args.json:
         from wqwarp.utils.provenance import write_result_json
 

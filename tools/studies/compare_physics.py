@@ -73,10 +73,16 @@ def plot(report: dict, path: str) -> None:
 def main(argv: list[str] | None = None) -> int:
     gaits = [s for s, (g, _) in audit.SCENARIOS.items() if g is not None]
     ap = doc_parser(__doc__)
-    ap.add_argument("--scenarios", default="standing,drive_0.5,drive_1.0,turn_0.5,trot_0.3,walk_0.3",
-                    help=f"comma-separated scenarios of tools/energy_audit.py (gaits only: {', '.join(gaits)})")
-    ap.add_argument("--backends", default="mujoco_cpu,featherstone", help="two or more backends; the first is the "
-                    "reference (default mujoco_cpu,featherstone)")  # fmt: skip
+    ap.add_argument(
+        "--scenarios",
+        default="standing,drive_0.5,drive_1.0,turn_0.5,trot_0.3,walk_0.3",
+        help=f"comma-separated scenarios of tools/energy_audit.py (gaits only: {', '.join(gaits)})",
+    )
+    ap.add_argument(
+        "--backends",
+        default="mujoco_cpu,featherstone",
+        help="two or more backends; the first is the reference (default mujoco_cpu,featherstone)",
+    )
     ap.add_argument("--dt", type=float, default=0.001, help="physics step [s] (default 0.001, the paper's)")
     ap.add_argument("--decimation", type=int, default=20, help="substeps per policy step (default 20: 50 Hz)")
     ap.add_argument("--seconds", type=float, default=4.0, help="length of each run [s] (default 4)")
@@ -98,8 +104,14 @@ def main(argv: list[str] | None = None) -> int:
     from wqwarp import quiet_warp
 
     quiet_warp()
-    report = {"dt": args.dt, "decimation": args.decimation, "seconds": args.seconds, "settle_s": SETTLE_S,
-              "backends": backends, "scenarios": {}}  # fmt: skip
+    report = {
+        "dt": args.dt,
+        "decimation": args.decimation,
+        "seconds": args.seconds,
+        "settle_s": SETTLE_S,
+        "backends": backends,
+        "scenarios": {},
+    }
     t0 = time.time()
     for name in scenarios:
         traces = {}
@@ -108,8 +120,10 @@ def main(argv: list[str] | None = None) -> int:
             audit.run_scenario(name, args.dt, args.decimation, 0.0, args.seconds, 1, backend=b, trace=traces[b])
             print(f"[{time.time() - t0:6.1f} s] {name} on {b}", file=sys.stderr, flush=True)
         report["scenarios"][name] = {"summary": compare(traces, backends), "traces": traces}
-    rows = [f"| scenario | quantity | {' | '.join(backends)} | RMS difference |", "|---|---|" + "---|" * len(backends)
-            + "---|"]  # fmt: skip
+    rows = [
+        f"| scenario | quantity | {' | '.join(backends)} | RMS difference |",
+        "|---|---|" + "---|" * len(backends) + "---|",
+    ]
     for name, entry in report["scenarios"].items():
         for q in ("height", "v_x", "p_cost", "p_cost_legs", "p_cost_wheels"):
             e = entry["summary"][q]

@@ -58,22 +58,35 @@ def main(argv: list[str] | None = None) -> int:
     from wqwarp.diff.tuning import evaluate
 
     points = []
-    rows = ["| alpha | h_b | h_s | f | DF_swing | stance x | energy / m [J/m] | p_cost [W] | v_x [m/s] | height [m] |",
-            "|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    rows = [
+        "| alpha | h_b | h_s | f | DF_swing | stance x | energy / m [J/m] | p_cost [W] | v_x [m/s] | height [m] |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for a in alphas:
         p = np.clip(start + a * (tuned - start), bounds[:, 0], bounds[:, 1])
         r = evaluate(p, gait, vx, args.backend, args.dt, args.decimation, 1.0, args.seconds)
         points.append({"alpha": a, **r})
         e = "-" if r["energy_per_m"] is None else f"{r['energy_per_m']:.1f}"
-        rows.append(f"| {a:g} | " + " | ".join(f"{x:.4f}" for x in p) + f" | {e} | {r['p_cost']:.1f} | "
-                    f"{r['vx']:.3f} | {r['height']:.3f} |")  # fmt: skip
+        rows.append(
+            f"| {a:g} | " + " | ".join(f"{x:.4f}" for x in p) + f" | {e} | {r['p_cost']:.1f} | "
+            f"{r['vx']:.3f} | {r['height']:.3f} |"
+        )
         print(rows[-1], file=sys.stderr, flush=True)
     print("\n".join(rows))
     if args.json:
         from wqwarp.utils.provenance import write_result_json
 
-        write_result_json(args.json, {"tuning": args.tuning, "gait": gait, "vx": vx, "start": start.tolist(),
-                                      "tuned": tuned.tolist(), "points": points})  # fmt: skip
+        write_result_json(
+            args.json,
+            {
+                "tuning": args.tuning,
+                "gait": gait,
+                "vx": vx,
+                "start": start.tolist(),
+                "tuned": tuned.tolist(),
+                "points": points,
+            },
+        )
     return 0
 
 

@@ -41,9 +41,14 @@ finite differences are no reference for the tape."""
 
 PARAM_NAMES = ("h_b", "h_s", "frequency", "df_swing", "stance_x")
 INPUTS = [("params", k, name, PARAM_SCALE[k]) for k, name in enumerate(PARAM_NAMES)]
-INPUTS += [("leg_offset", 0, "FR hip", 0.1), ("leg_offset", 1, "FR thigh", 0.1),
-           ("leg_offset", 2, "FR calf", 0.1), ("leg_offset", 10, "RL thigh", 0.1),
-           ("wheel_offset", 0, "FR wheel", 2.0), ("wheel_offset", 3, "RL wheel", 2.0)]
+INPUTS += [
+    ("leg_offset", 0, "FR hip", 0.1),
+    ("leg_offset", 1, "FR thigh", 0.1),
+    ("leg_offset", 2, "FR calf", 0.1),
+    ("leg_offset", 10, "RL thigh", 0.1),
+    ("wheel_offset", 0, "FR wheel", 2.0),
+    ("wheel_offset", 3, "RL wheel", 2.0),
+]
 """Inputs whose gradients are checked: (DiffRollout input, column, name, scale). Leg-target offsets [rad] have scale
 0.1 rad, wheel-speed offsets [rad/s] 2 rad/s."""
 GROUPS = {"gait": slice(0, 5), "legs": slice(5, 9), "wheels": slice(9, 11)}
@@ -56,8 +61,9 @@ def study_point(gait: str, vx: float, dt: float, horizon_s: float, warmup_s: flo
     decimation = max(1, round(0.02 / dt))
     policy_dt = dt * decimation
     cfg = SimConfig(num_envs=1, dt=dt, decimation=decimation, backend="featherstone")
-    roll = DiffRollout(cfg, gait, (vx, 0.0, 0.0), horizon=max(1, round(horizon_s / policy_dt)),
-                       warmup=round(warmup_s / policy_dt))  # fmt: skip
+    roll = DiffRollout(
+        cfg, gait, (vx, 0.0, 0.0), horizon=max(1, round(horizon_s / policy_dt)), warmup=round(warmup_s / policy_dt)
+    )
     zeros = np.zeros
     base = {"params": gait_params(gait), "leg_offset": zeros(12, np.float32), "wheel_offset": zeros(4, np.float32)}
     scale = np.array([x[3] for x in INPUTS])
@@ -95,26 +101,43 @@ def study_point(gait: str, vx: float, dt: float, horizon_s: float, warmup_s: flo
         out = {}
         for name, sl in GROUPS.items():
             cos, rel = cos_rel(a[sl], b[sl])
-            out[name] = {"cosine": cos, "rel_error": rel, "cosine_fine": cos_rel(a[sl], c[sl])[0],
-                         "fd_consistency": cos_rel(c[sl], b[sl])[0],
-                         "tape_norm": float(np.linalg.norm(a[sl]))}  # fmt: skip
+            out[name] = {
+                "cosine": cos,
+                "rel_error": rel,
+                "cosine_fine": cos_rel(a[sl], c[sl])[0],
+                "fd_consistency": cos_rel(c[sl], b[sl])[0],
+                "tape_norm": float(np.linalg.norm(a[sl])),
+            }
         out.update(tape=tape.tolist(), fd=fd.tolist(), fd_fine=fine.tolist())
         return out
 
-    return {"dt": dt, "decimation": decimation, "horizon_s": roll.horizon * policy_dt,
-            "substeps": roll.horizon * decimation, "p_cost": float(res.p_cost[0]),
-            "vx": float(res.base_velocity[0, 0]), "fell": bool(res.fell[0]),
-            "p_cost_smooth": compare(g_p, fd_p, fine_p), "vx_grad": compare(g_v, fd_v, fine_v),
-            "seconds": time.time() - t0}  # fmt: skip
+    return {
+        "dt": dt,
+        "decimation": decimation,
+        "horizon_s": roll.horizon * policy_dt,
+        "substeps": roll.horizon * decimation,
+        "p_cost": float(res.p_cost[0]),
+        "vx": float(res.base_velocity[0, 0]),
+        "fell": bool(res.fell[0]),
+        "p_cost_smooth": compare(g_p, fd_p, fine_p),
+        "vx_grad": compare(g_v, fd_v, fine_v),
+        "seconds": time.time() - t0,
+    }
 
 
 def table(points: list[dict]) -> str:
-    rows = ["| dt [s] | horizon [s] | output | " + " | ".join(f"{g}: cos / rel err / fd 1 % vs 0.1 %" for g in GROUPS)
-            + " |", "|---|---|---|" + "---|" * len(GROUPS)]  # fmt: skip
+    rows = [
+        "| dt [s] | horizon [s] | output | "
+        + " | ".join(f"{g}: cos / rel err / fd 1 % vs 0.1 %" for g in GROUPS)
+        + " |",
+        "|---|---|---|" + "---|" * len(GROUPS),
+    ]
     for p in points:
         for key, label in (("p_cost_smooth", "p_cost"), ("vx_grad", "v_x")):
-            cells = [f"{p[key][g]['cosine']:.3f} / {p[key][g]['rel_error']:.2g} / {p[key][g]['fd_consistency']:.3f}"
-                     for g in GROUPS]  # fmt: skip
+            cells = [
+                f"{p[key][g]['cosine']:.3f} / {p[key][g]['rel_error']:.2g} / {p[key][g]['fd_consistency']:.3f}"
+                for g in GROUPS
+            ]
             rows.append(f"| {p['dt']:g} | {p['horizon_s']:.2f} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(rows)
 
@@ -131,11 +154,11 @@ def plot(points: list[dict], path: str) -> None:
         h = [p["horizon_s"] for p in pts]
         for key, style in (("p_cost_smooth", "-o"), ("vx_grad", "--s")):
             label = f"dt {dt:g}, {'p_cost' if key == 'p_cost_smooth' else 'v_x'}"
-            axes[0].plot(h, [p[key]["gait"]["cosine"] for p in pts], style,
-                         label=label)  # fmt: skip
+            axes[0].plot(h, [p[key]["gait"]["cosine"] for p in pts], style, label=label)
             axes[1].loglog(h, [p[key]["gait"]["rel_error"] for p in pts], style, label=label)
-    axes[0].set(xscale="log", xlabel="taped horizon [s]", ylabel="gait parameters: cosine(tape, fd)",
-                ylim=(-1.05, 1.05))  # fmt: skip
+    axes[0].set(
+        xscale="log", xlabel="taped horizon [s]", ylabel="gait parameters: cosine(tape, fd)", ylim=(-1.05, 1.05)
+    )
     axes[1].set(xlabel="taped horizon [s]", ylabel="||tape - fd|| / ||fd||")
     axes[0].legend(fontsize=7)
     fig.tight_layout()
@@ -176,17 +199,29 @@ def main(argv: list[str] | None = None) -> int:
             t0 = time.time()
             p = study_point(args.gait, args.vx, dt, h, args.warmup)
             points.append(p)
-            print(f"dt {dt:g} horizon {p['horizon_s']:.2f} s: gait-parameter cos p_cost "
-                  f"{p['p_cost_smooth']['gait']['cosine']:.3f}, v_x {p['vx_grad']['gait']['cosine']:.3f} "
-                  f"({time.time() - t0:.1f} s)", file=sys.stderr, flush=True)  # fmt: skip
+            print(
+                f"dt {dt:g} horizon {p['horizon_s']:.2f} s: gait-parameter cos p_cost "
+                f"{p['p_cost_smooth']['gait']['cosine']:.3f}, v_x {p['vx_grad']['gait']['cosine']:.3f} "
+                f"({time.time() - t0:.1f} s)",
+                file=sys.stderr,
+                flush=True,
+            )
     print(table(points))
     if args.json:
         from wqwarp.utils.provenance import write_result_json
 
         inputs = [{"input": a, "column": b, "name": c, "scale": float(d)} for a, b, c, d in INPUTS]
-        write_result_json(args.json, {"gait": args.gait, "vx": args.vx, "warmup_s": args.warmup, "inputs": inputs,
-                                      "fd_fractions": [FD_FRACTION, FD_FRACTION_FINE],
-                                      "points": points})  # fmt: skip
+        write_result_json(
+            args.json,
+            {
+                "gait": args.gait,
+                "vx": args.vx,
+                "warmup_s": args.warmup,
+                "inputs": inputs,
+                "fd_fractions": [FD_FRACTION, FD_FRACTION_FINE],
+                "points": points,
+            },
+        )
     if args.plot:
         plot(points, args.plot)
     return 0

@@ -35,8 +35,9 @@ def parse_tracking(items: list[str]) -> dict[str, list[str]]:
         preset, sep, files = item.partition("=")
         paths = [f for f in files.split(",") if f]
         if not sep or preset not in PRESET_ORDER or not paths:
-            raise ValueError(f"--tracking {item!r}: want PRESET=FILE[,FILE...] with a preset of "
-                             f"{', '.join(PRESET_ORDER)}")  # fmt: skip
+            raise ValueError(
+                f"--tracking {item!r}: want PRESET=FILE[,FILE...] with a preset of {', '.join(PRESET_ORDER)}"
+            )
         if preset in out:
             raise ValueError(f"--tracking names {preset} twice (give its seeds' files in one, comma-separated)")
         for f in paths:
@@ -60,20 +61,31 @@ def checks(tracking: dict[str, list[str]], nominal: str | None = None) -> dict:
         if nominal:
             shutil.copyfile(nominal, os.path.join(ev, "ours_s1_nominal.json"))
         summary = collect(work, list(tracking), seeds)
-    return {"inputs": {p: [os.path.abspath(f) for f in fs] for p, fs in tracking.items()}
-            | ({"nominal": os.path.abspath(nominal)} if nominal else {}),
-            "fig5_claims": _ordering_checks(summary), "targets": _target_checks(summary)}  # fmt: skip
+    return {
+        "inputs": {p: [os.path.abspath(f) for f in fs] for p, fs in tracking.items()}
+        | ({"nominal": os.path.abspath(nominal)} if nominal else {}),
+        "fig5_claims": _ordering_checks(summary),
+        "targets": _target_checks(summary),
+    }
 
 
 @entry_point
 def main(argv: list[str] | None = None) -> int:
     ap = doc_parser(__doc__)
-    ap.add_argument("--tracking", action="append", default=[], metavar="PRESET=FILE[,FILE...]",
-                    help="tracking records of one method, one file per seed (repeat per method; ours and "
-                         "no_predictor for the headline)")  # fmt: skip
-    ap.add_argument("--nominal", default=None, metavar="FILE",
-                    help="zero-residual record of ours (train/evaluate.py --zero-residual), for the residual's "
-                         "energy targets")  # fmt: skip
+    ap.add_argument(
+        "--tracking",
+        action="append",
+        default=[],
+        metavar="PRESET=FILE[,FILE...]",
+        help="tracking records of one method, one file per seed (repeat per method; ours and "
+        "no_predictor for the headline)",
+    )
+    ap.add_argument(
+        "--nominal",
+        default=None,
+        metavar="FILE",
+        help="zero-residual record of ours (train/evaluate.py --zero-residual), for the residual's energy targets",
+    )
     add_result_options(ap, plot=None)
     args = ap.parse_args(argv)
     try:

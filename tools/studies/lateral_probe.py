@@ -52,11 +52,13 @@ def probe_policy(checkpoint: str, seconds: float) -> dict:
                 actions.append(a.clone())
     a = torch.stack(actions)
     return {
-        "checkpoint": checkpoint, "phase_residual_mode": env.cfg.action.phase_residual_mode,
-        "command_vy": list(COMMANDS), "achieved_vy": torch.stack(vy).mean(0).tolist(),
+        "checkpoint": checkpoint,
+        "phase_residual_mode": env.cfg.action.phase_residual_mode,
+        "command_vy": list(COMMANDS),
+        "achieved_vy": torch.stack(vy).mean(0).tolist(),
         "mean_phase_action": a[:, :, :4].mean((0, 2)).tolist(),
         "foot_y_action_std": a[:, :, [5, 8, 11, 14]].std(0).mean(1).tolist(),
-    }  # fmt: skip
+    }
 
 
 def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
@@ -89,8 +91,14 @@ def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
                 v = sim.base_lin_vel.numpy()  # base frame
                 vy.append(float(v[0, 1]))
                 p.append(float(sim.p_cost.numpy()[0]))
-        out.append({"amplitude_m": amp, "action_units": amp / 0.2, "achieved_vy": float(np.mean(vy)),
-                    "p_cost": float(np.mean(p))})  # fmt: skip
+        out.append(
+            {
+                "amplitude_m": amp,
+                "action_units": amp / 0.2,
+                "achieved_vy": float(np.mean(vy)),
+                "p_cost": float(np.mean(p)),
+            }
+        )
     return {"open_loop": out}
 
 
@@ -104,7 +112,7 @@ def main(argv=None) -> int:
     )
     ap.add_argument("--seconds", type=float, default=8.0, help="length of each rollout [s] (default 8)")
     ap.add_argument("--json", default=None, help="also write the results to this JSON file")
-    args = ap.parse_args(argv)  # fmt: skip
+    args = ap.parse_args(argv)
     if (args.checkpoint is None) == (not args.open_loop) or args.seconds <= 2.0:
         raise UsageError("give exactly one of --checkpoint and --open-loop, and --seconds > 2")
     if args.checkpoint is not None and not os.path.isfile(args.checkpoint):

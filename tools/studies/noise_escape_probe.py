@@ -67,10 +67,21 @@ def probe(checkpoint: str, seconds: float, samples: int, seed: int) -> dict:
             q = []
             for s in range(samples):
                 out = [wp.zeros((n, 4), dtype=wp.vec3), wp.zeros((n, 12), dtype=float), wp.zeros((n, 4), dtype=float)]
-                wp.launch(residual_targets, dim=(n, 4),
-                          inputs=[wp.from_torch(a[s].contiguous()), ng.foot_target, ng.wheel_velocity,
-                                  int(cfg.use_nominal_wheels), cfg.foot_scale, cfg.foot_clip, cfg.wheel_scale,
-                                  cfg.wheel_clip], outputs=out)  # fmt: skip
+                wp.launch(
+                    residual_targets,
+                    dim=(n, 4),
+                    inputs=[
+                        wp.from_torch(a[s].contiguous()),
+                        ng.foot_target,
+                        ng.wheel_velocity,
+                        int(cfg.use_nominal_wheels),
+                        cfg.foot_scale,
+                        cfg.foot_clip,
+                        cfg.wheel_scale,
+                        cfg.wheel_clip,
+                    ],
+                    outputs=out,
+                )
                 q.append(wp.to_torch(out[1]).clone())
             return torch.stack(q), a[:, :, 4:16]
 
@@ -83,18 +94,27 @@ def probe(checkpoint: str, seconds: float, samples: int, seed: int) -> dict:
         r = slice(i * ROBOTS_PER_COMMAND, (i + 1) * ROBOTS_PER_COMMAND)
         applied, nominal = float(q[:, r].std(0).mean()), float(q0[:, r].std(0).mean())
         rows[name] = {
-            "joint_target_noise_rad": applied, "joint_target_noise_without_posture_rad": nominal,
+            "joint_target_noise_rad": applied,
+            "joint_target_noise_without_posture_rad": nominal,
             "ratio": applied / nominal if nominal > 0 else None,
             "foot_at_clip": float((cfg.foot_scale * foot[:, r].abs() >= cfg.foot_clip).float().mean()),
             "joint_target_at_range": float(((q[:, r] <= lo + 1e-4) | (q[:, r] >= hi - 1e-4)).float().mean()),
             "joint_beyond_soft_limit": float((excursion[r] > 0).float().mean()),
             "joint_limits_term_rad": float(excursion[r].sum(1).mean()),
-            "foot_residual_abs_mean_m": float((cfg.foot_scale * mu[r, 4:16]).clamp(-cfg.foot_clip, cfg.foot_clip)
-                                              .abs().mean()),
-        }  # fmt: skip
-    return {"checkpoint": checkpoint, "iteration": runner.iteration, "seconds": seconds, "samples": samples,
-            "seed": seed, "robots_per_command": ROBOTS_PER_COMMAND, "foot_std": sigma[4:16].tolist(),
-            "commands": rows}  # fmt: skip
+            "foot_residual_abs_mean_m": float(
+                (cfg.foot_scale * mu[r, 4:16]).clamp(-cfg.foot_clip, cfg.foot_clip).abs().mean()
+            ),
+        }
+    return {
+        "checkpoint": checkpoint,
+        "iteration": runner.iteration,
+        "seconds": seconds,
+        "samples": samples,
+        "seed": seed,
+        "robots_per_command": ROBOTS_PER_COMMAND,
+        "foot_std": sigma[4:16].tolist(),
+        "commands": rows,
+    }
 
 
 @entry_point
@@ -119,15 +139,21 @@ def main(argv=None) -> int:
         out = probe(args.checkpoint, args.seconds, args.samples, args.seed)
     except ValueError as e:
         raise UsageError(str(e)) from None
-    print(f"noise escape probe of {args.checkpoint} (iteration {out['iteration']}), foot std "
-          f"{sum(out['foot_std']) / 12:.3f}")  # fmt: skip
-    print(f"{'command':<8} {'noise [rad]':>11} {'w/o posture':>11} {'ratio':>6} {'at clip':>8} {'at q lim':>8} "
-          f"{'posture':>8} {'q > soft':>8} {'excursion':>9}")  # fmt: skip
+    print(
+        f"noise escape probe of {args.checkpoint} (iteration {out['iteration']}), foot std "
+        f"{sum(out['foot_std']) / 12:.3f}"
+    )
+    print(
+        f"{'command':<8} {'noise [rad]':>11} {'w/o posture':>11} {'ratio':>6} {'at clip':>8} {'at q lim':>8} "
+        f"{'posture':>8} {'q > soft':>8} {'excursion':>9}"
+    )
     for name, r in out["commands"].items():
-        print(f"{name:<8} {r['joint_target_noise_rad']:>11.4f} {r['joint_target_noise_without_posture_rad']:>11.4f} "
-              f"{r['ratio']:>6.2f} {r['foot_at_clip']:>8.1%} {r['joint_target_at_range']:>8.1%} "
-              f"{100 * r['foot_residual_abs_mean_m']:>6.1f}cm {r['joint_beyond_soft_limit']:>8.1%} "
-              f"{r['joint_limits_term_rad']:>7.3f}rad")  # fmt: skip
+        print(
+            f"{name:<8} {r['joint_target_noise_rad']:>11.4f} {r['joint_target_noise_without_posture_rad']:>11.4f} "
+            f"{r['ratio']:>6.2f} {r['foot_at_clip']:>8.1%} {r['joint_target_at_range']:>8.1%} "
+            f"{100 * r['foot_residual_abs_mean_m']:>6.1f}cm {r['joint_beyond_soft_limit']:>8.1%} "
+            f"{r['joint_limits_term_rad']:>7.3f}rad"
+        )
     if args.json:
         from wqwarp.utils.io import write_text_atomic
 

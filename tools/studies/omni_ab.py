@@ -23,12 +23,17 @@ from wqwarp.cli.time_to_skill import first_below
 
 THRESHOLDS = (0.2, 0.15, 0.1)
 LEVER_FIELDS = {
-    "symmetry": ("train", "symmetry"), "init_std": ("train", "init_noise_std"),
-    "std_groups": ("train", "init_noise_std_groups"), "entropy": ("train", "entropy_coef"),
-    "phase_clip": ("env", "action", "phase_clip"), "clip_actions": ("env", "action", "clip_actions"),
-    "axis_odds": ("env", "commands", "single_axis_weights"), "only_positive": ("env", "reward", "only_positive"),
-    "lateral_gain": ("env", "gait", "lateral_gain"), "epochs": ("train", "num_learning_epochs"),
-}  # fmt: skip
+    "symmetry": ("train", "symmetry"),
+    "init_std": ("train", "init_noise_std"),
+    "std_groups": ("train", "init_noise_std_groups"),
+    "entropy": ("train", "entropy_coef"),
+    "phase_clip": ("env", "action", "phase_clip"),
+    "clip_actions": ("env", "action", "clip_actions"),
+    "axis_odds": ("env", "commands", "single_axis_weights"),
+    "only_positive": ("env", "reward", "only_positive"),
+    "lateral_gain": ("env", "gait", "lateral_gain"),
+    "epochs": ("train", "num_learning_epochs"),
+}
 
 
 def _get(cfg: dict, path: tuple[str, ...]):
@@ -51,10 +56,16 @@ def evaluation_curve(run: str, per_it: int) -> list[dict]:
         with open(os.path.join(run, name), encoding="utf-8") as f:
             res = json.load(f)
         it = int(m.group(1))
-        curve.append({"iterations": it, "samples": it * per_it, "file": name,
-                      "mse": {r["task"]: r["mse"] for r in res["results"]},
-                      "upright": {r["task"]: r["upright"] for r in res["results"]},
-                      "p_cost_w": {r["task"]: r["mean_p_cost"] for r in res["results"]}})  # fmt: skip
+        curve.append(
+            {
+                "iterations": it,
+                "samples": it * per_it,
+                "file": name,
+                "mse": {r["task"]: r["mse"] for r in res["results"]},
+                "upright": {r["task"]: r["upright"] for r in res["results"]},
+                "p_cost_w": {r["task"]: r["mean_p_cost"] for r in res["results"]},
+            }
+        )
     return sorted(curve, key=lambda c: c["iterations"])
 
 
@@ -66,10 +77,17 @@ def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50, upto:
     rows = read_metrics(run)[:upto]
     if not rows:
         raise ValueError(f"{run}: no metrics.jsonl rows")
-    robots = int(cfg["args"]["num_envs"]) * int(cfg.get("world_size", 1))
-    per_it = robots * int(cfg["args"]["num_steps_per_env"])
-    out = {"run": run, "preset": cfg["args"].get("preset"), "iterations": len(rows), "samples": len(rows) * per_it,
-           "levers": {k: _get(cfg, p) for k, p in LEVER_FIELDS.items()}, "to_threshold": {}, "final": {}}  # fmt: skip
+    robots = int(cfg["env"]["sim"]["num_envs"]) * int(cfg.get("world_size", 1))  # the resolved config (any version)
+    per_it = robots * int(cfg["train"]["num_steps_per_env"])
+    out = {
+        "run": run,
+        "preset": cfg.get("task") or cfg["args"].get("preset"),
+        "iterations": len(rows),
+        "samples": len(rows) * per_it,
+        "levers": {k: _get(cfg, p) for k, p in LEVER_FIELDS.items()},
+        "to_threshold": {},
+        "final": {},
+    }
     wall = [float(r.get("collect_s") or 0) + float(r.get("learn_s") or 0) for r in rows]
     for axis in ("vx", "vy", "wz"):
         vals = [float(r.get(f"Metrics/{axis}_error") or 0.0) for r in rows]
@@ -77,11 +95,21 @@ def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50, upto:
         cells = {}
         for th in THRESHOLDS:
             i = first_below(vals, th, 20)
-            cells[str(th)] = None if i is None else {"iteration": i + 1, "samples": (i + 1) * per_it,
-                                                     "wall_min": round(sum(wall[: i + 1]) / 60, 1)}  # fmt: skip
+            cells[str(th)] = (
+                None
+                if i is None
+                else {"iteration": i + 1, "samples": (i + 1) * per_it, "wall_min": round(sum(wall[: i + 1]) / 60, 1)}
+            )
         out["to_threshold"][axis] = cells
-    for key in ("Metrics/p_cost", "Policy/std_phase", "Policy/std_foot", "Policy/std_wheel", "Actions/foot_abs",
-                "Actions/phase_abs", "mean_reward"):  # fmt: skip
+    for key in (
+        "Metrics/p_cost",
+        "Policy/std_phase",
+        "Policy/std_foot",
+        "Policy/std_wheel",
+        "Actions/foot_abs",
+        "Actions/phase_abs",
+        "mean_reward",
+    ):
         vals = [float(r[key]) for r in rows[-tail:] if r.get(key) is not None]
         if vals:
             out["final"][key] = sum(vals) / len(vals)
@@ -94,12 +122,19 @@ def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50, upto:
             with open(path, encoding="utf-8") as f:
                 res = json.load(f)
             if key == "evaluation":
-                out[key] = {r["task"]: {"mse": r.get("mse"), "upright": r.get("upright"),
-                                        "p_cost_w": r.get("mean_p_cost"), "gait_usage": r.get("gait_usage")}
-                            for r in res["results"]}  # fmt: skip
+                out[key] = {
+                    r["task"]: {
+                        "mse": r.get("mse"),
+                        "upright": r.get("upright"),
+                        "p_cost_w": r.get("mean_p_cost"),
+                        "gait_usage": r.get("gait_usage"),
+                    }
+                    for r in res["results"]
+                }
             else:
-                out[key] = [{k: r[k] for k in ("command_vy", "vy", "wz", "upright", "tracked")}
-                            for r in res["runs"]["selected"]]  # fmt: skip
+                out[key] = [
+                    {k: r[k] for k in ("command_vy", "vy", "wz", "upright", "tracked")} for r in res["runs"]["selected"]
+                ]
     return out
 
 
@@ -127,14 +162,20 @@ def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("runs", nargs="+", help="run directories written by train/ppo_newton.py")
     ap.add_argument("--eval-json", default="eval.json", help="tracking result inside each run (default eval.json)")
-    ap.add_argument("--lateral-json", default="lateral.json", help="lateral probe inside each run (default "
-                    "lateral.json)")  # fmt: skip
-    ap.add_argument("--upto", type=int, default=None, help="use the first UPTO iterations of each run (equal "
-                    "samples; default all)")
+    ap.add_argument(
+        "--lateral-json", default="lateral.json", help="lateral probe inside each run (default lateral.json)"
+    )
+    ap.add_argument(
+        "--upto", type=int, default=None, help="use the first UPTO iterations of each run (equal samples; default all)"
+    )
     ap.add_argument("--json", default=None, help="also write the table to this JSON file")
-    ap.add_argument("--archive", default=None, help="copy each run's config.json, evaluation JSONs and every 10th "
-                    "row of metrics.jsonl (gzipped) into ARCHIVE/<run name>/ (what is committed; checkpoints never "
-                    "are)")  # fmt: skip
+    ap.add_argument(
+        "--archive",
+        default=None,
+        help="copy each run's config.json, evaluation JSONs and every 10th "
+        "row of metrics.jsonl (gzipped) into ARCHIVE/<run name>/ (what is committed; checkpoints never "
+        "are)",
+    )
     args = ap.parse_args(argv)
     ap.check_outputs(args.json)
     try:
@@ -149,18 +190,27 @@ def main(argv=None) -> int:
         name = os.path.basename(r["run"].rstrip("/"))
         print(f"{name}: {r['samples'] / 1e6:.1f} M samples, {r['wall_min']} min; {lev}")
         for axis, cells in r["to_threshold"].items():
-            txt = "  ".join(f"<{t}: " + ("never" if c is None else f"{c['samples'] / 1e6:.2f} M") for t, c in
-                            cells.items())  # fmt: skip
+            txt = "  ".join(
+                f"<{t}: " + ("never" if c is None else f"{c['samples'] / 1e6:.2f} M") for t, c in cells.items()
+            )
             print(f"   train {axis}: final {r['final'][f'{axis}_error']:.3f}   {txt}")
         if "evaluation" in r:
-            print("   eval MSE: " + "  ".join(f"{t} {v['mse']:.4f} (up {v['upright']:.2f})"
-                                             for t, v in r["evaluation"].items()))  # fmt: skip
+            print(
+                "   eval MSE: "
+                + "  ".join(f"{t} {v['mse']:.4f} (up {v['upright']:.2f})" for t, v in r["evaluation"].items())
+            )
         for c in r["evaluation_curve"]:
-            print(f"   eval at {c['samples'] / 1e6:.1f} M: " + "  ".join(f"{t} {v:.4f}" for t, v in c["mse"].items())
-                  + "   upright " + " ".join(f"{v:.2f}" for v in c["upright"].values()))  # fmt: skip
+            print(
+                f"   eval at {c['samples'] / 1e6:.1f} M: "
+                + "  ".join(f"{t} {v:.4f}" for t, v in c["mse"].items())
+                + "   upright "
+                + " ".join(f"{v:.2f}" for v in c["upright"].values())
+            )
         if "lateral" in r:
-            print("   lateral: " + "  ".join(f"{x['command_vy']:+.1f}->{x['vy']:+.2f} (wz {x['wz']:+.2f})"
-                                            for x in r["lateral"]))  # fmt: skip
+            print(
+                "   lateral: "
+                + "  ".join(f"{x['command_vy']:+.1f}->{x['vy']:+.2f} (wz {x['wz']:+.2f})" for x in r["lateral"])
+            )
     if args.json:
         from wqwarp.utils.provenance import write_result_json
 

@@ -24,8 +24,16 @@ from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.utils.io import output_problem
 
 
-def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, decimation: int, seed: int,
-         progress: bool = False) -> dict:  # fmt: skip
+def fuzz(
+    robot_steps: int,
+    num_envs: int,
+    preset: str,
+    backend: str,
+    dt: float,
+    decimation: int,
+    seed: int,
+    progress: bool = False,
+) -> dict:
     import torch
 
     from wqwarp.rl.env import WheeledGo1Env
@@ -43,8 +51,15 @@ def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, 
     clip = cfg.action.clip_actions
     steps = max(1, math.ceil(robot_steps / num_envs))
     per_second = max(1, int(round(1.0 / env.dt)))
-    counts = {"robot_steps": 0, "contact_terminations": 0, "time_outs": 0, "unstable": 0, "nonfinite_obs": 0,
-              "nonfinite_rewards": 0, "nonfinite_logs": 0}  # fmt: skip
+    counts = {
+        "robot_steps": 0,
+        "contact_terminations": 0,
+        "time_outs": 0,
+        "unstable": 0,
+        "nonfinite_obs": 0,
+        "nonfinite_rewards": 0,
+        "nonfinite_logs": 0,
+    }
     events = []
     limits = torch.tensor([3.0, 1.5, 3.0])
     t0 = time.perf_counter()
@@ -62,14 +77,21 @@ def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, 
         counts["contact_terminations"] += int((dones.bool() & ~extras["time_outs"] & ~unstable).sum())
         counts["nonfinite_obs"] += sum(int((~torch.isfinite(obs[k])).sum()) for k in ("policy", "privileged"))
         counts["nonfinite_rewards"] += int((~torch.isfinite(rew)).sum())
-        counts["nonfinite_logs"] += sum(int(not bool(torch.isfinite(torch.as_tensor(v)).all()))
-                                        for v in extras["log"].values())  # fmt: skip
+        counts["nonfinite_logs"] += sum(
+            int(not bool(torch.isfinite(torch.as_tensor(v)).all())) for v in extras["log"].values()
+        )
         for r in unstable.nonzero().flatten().tolist():
             if len(events) < 50:
-                events.append({"step": step, "robot": r, "command": [round(float(x), 3) for x in env.commands[r]],
-                               "max_joint_speed_before": round(float(qd_before[r, 6:].abs().max()), 2),
-                               "base_speed_before": round(float(qd_before[r, :3].norm()), 3),
-                               "base_height_before": round(float(height_before[r]), 3)})  # fmt: skip
+                events.append(
+                    {
+                        "step": step,
+                        "robot": r,
+                        "command": [round(float(x), 3) for x in env.commands[r]],
+                        "max_joint_speed_before": round(float(qd_before[r, 6:].abs().max()), 2),
+                        "base_speed_before": round(float(qd_before[r, :3].norm()), 3),
+                        "base_height_before": round(float(height_before[r]), 3),
+                    }
+                )
         if step % 50 == 0:
             env.estimator_trainer.clear()  # nothing learns here; keep the collected pairs from growing
         if progress and (step + 1) % max(1, steps // 20) == 0:
@@ -77,10 +99,18 @@ def fuzz(robot_steps: int, num_envs: int, preset: str, backend: str, dt: float, 
     if progress:
         print()
     wall = time.perf_counter() - t0
-    return {"preset": preset, "backend": env.sim.backend, "num_envs": num_envs, "dt": dt, "decimation": decimation,
-            "seed": seed, "wall_s": round(wall, 1), "counts": counts,
-            "unstable_per_million_robot_steps": round(1e6 * counts["unstable"] / counts["robot_steps"], 2),
-            "events": events}  # fmt: skip
+    return {
+        "preset": preset,
+        "backend": env.sim.backend,
+        "num_envs": num_envs,
+        "dt": dt,
+        "decimation": decimation,
+        "seed": seed,
+        "wall_s": round(wall, 1),
+        "counts": counts,
+        "unstable_per_million_robot_steps": round(1e6 * counts["unstable"] / counts["robot_steps"], 2),
+        "events": events,
+    }
 
 
 @entry_point
@@ -101,18 +131,23 @@ def main(argv=None) -> int:
     if args.robot_steps < 1 or args.num_envs < 1 or args.decimation < 1 or not args.dt > 0:
         raise UsageError("--robot-steps, --num-envs, --decimation and --dt must be positive")
     if args.preset not in PRESETS or args.backend not in BACKENDS:
-        raise UsageError(f"unknown --preset {args.preset!r} or --backend {args.backend!r} (presets: "
-                         f"{', '.join(sorted(PRESETS))}; backends: {', '.join(BACKENDS)})")  # fmt: skip
+        raise UsageError(
+            f"unknown --preset {args.preset!r} or --backend {args.backend!r} (presets: "
+            f"{', '.join(sorted(PRESETS))}; backends: {', '.join(BACKENDS)})"
+        )
 
     if args.json and (problem := output_problem(args.json)):
         raise UsageError(f"--json {args.json!r}: {problem}")
-    res = fuzz(args.robot_steps, args.num_envs, args.preset, args.backend, args.dt, args.decimation, args.seed,
-               progress=True)  # fmt: skip
+    res = fuzz(
+        args.robot_steps, args.num_envs, args.preset, args.backend, args.dt, args.decimation, args.seed, progress=True
+    )
     c = res["counts"]
-    print(f"{c['robot_steps']} robot-steps in {res['wall_s']} s: {c['unstable']} diverged "
-          f"({res['unstable_per_million_robot_steps']} per million), {c['contact_terminations']} base contacts, "
-          f"{c['time_outs']} time-outs; non-finite: obs {c['nonfinite_obs']}, rewards {c['nonfinite_rewards']}, "
-          f"logs {c['nonfinite_logs']}")  # fmt: skip
+    print(
+        f"{c['robot_steps']} robot-steps in {res['wall_s']} s: {c['unstable']} diverged "
+        f"({res['unstable_per_million_robot_steps']} per million), {c['contact_terminations']} base contacts, "
+        f"{c['time_outs']} time-outs; non-finite: obs {c['nonfinite_obs']}, rewards {c['nonfinite_rewards']}, "
+        f"logs {c['nonfinite_logs']}"
+    )
     for e in res["events"][:10]:
         print(f"  diverged: {e}")
     if args.json:

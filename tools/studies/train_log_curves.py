@@ -23,14 +23,22 @@ import sys
 
 from wqwarp.cli.args import UsageError, doc_parser, entry_point
 
-LINE = re.compile(r"\] (\d+)/(\d+) ETA [0-9:]+ \| reward\s+(-?[\d.]+) \| err vx ([\d.]+) vy ([\d.]+) wz ([\d.]+) \| "
-                  r"power\s+([\d.]+) W \(legs\s+([\d.]+), wheels\s+([\d.]+)\)")  # fmt: skip
+LINE = re.compile(
+    r"\] (\d+)/(\d+) ETA [0-9:]+ \| reward\s+(-?[\d.]+) \| err vx ([\d.]+) vy ([\d.]+) wz ([\d.]+) \| "
+    r"power\s+([\d.]+) W \(legs\s+([\d.]+), wheels\s+([\d.]+)\)"
+)
 KEYS = ("reward", "err_vx", "err_vy", "err_wz", "power", "power_legs", "power_wheels")
 
 
-JSONL_KEYS = {"reward": "mean_reward", "err_vx": "Metrics/vx_error", "err_vy": "Metrics/vy_error",
-              "err_wz": "Metrics/wz_error", "power": "Metrics/p_cost", "power_legs": "Metrics/p_cost_legs",
-              "power_wheels": "Metrics/p_cost_wheels"}  # fmt: skip
+JSONL_KEYS = {
+    "reward": "mean_reward",
+    "err_vx": "Metrics/vx_error",
+    "err_vy": "Metrics/vy_error",
+    "err_wz": "Metrics/wz_error",
+    "power": "Metrics/p_cost",
+    "power_legs": "Metrics/p_cost_legs",
+    "power_wheels": "Metrics/p_cost_wheels",
+}
 """The same numbers in a run's ``metrics.jsonl`` (``wqwarp.rl.progress``; the studies commit every 10th row)."""
 
 
@@ -106,14 +114,18 @@ def main(argv=None) -> int:
         firsts = {k: first_below(rows, f"err_{k}", t, args.window) for k, t in skill.items()}
         out["logs"][path] = {"points": table, "first_below": firsts, "last_iteration": max(rows)}
         print(f"\n{path} (last iteration {max(rows)})")
-        print(f"{'iteration':>9} {'reward':>8} {'err vx':>7} {'err vy':>7} {'err wz':>7} {'power':>7} {'legs':>7} "
-              f"{'wheels':>7}")  # fmt: skip
+        print(
+            f"{'iteration':>9} {'reward':>8} {'err vx':>7} {'err vy':>7} {'err wz':>7} {'power':>7} {'legs':>7} "
+            f"{'wheels':>7}"
+        )
         for it, w in table.items():
             if w is None:
                 print(f"{it:>9} {'-':>8}")
                 continue
-            print(f"{it:>9} {w['reward']:8.1f} {w['err_vx']:7.3f} {w['err_vy']:7.3f} {w['err_wz']:7.3f} "
-                  f"{w['power']:7.1f} {w['power_legs']:7.1f} {w['power_wheels']:7.1f}")  # fmt: skip
+            print(
+                f"{it:>9} {w['reward']:8.1f} {w['err_vx']:7.3f} {w['err_vy']:7.3f} {w['err_wz']:7.3f} "
+                f"{w['power']:7.1f} {w['power_legs']:7.1f} {w['power_wheels']:7.1f}"
+            )
         for k, it in firsts.items():
             print(f"  first iteration with windowed err {k} < {skill[k]:g}: {it if it is not None else 'never'}")
     if args.json:

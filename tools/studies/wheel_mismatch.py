@@ -25,8 +25,12 @@ import sys
 
 from wqwarp.cli.args import UsageError, doc_parser, entry_point
 
-PATTERNS = {"common": (1.0, 1.0, 1.0, 1.0), "one": (0.0, 0.0, 0.0, 1.0), "fore_aft": (1.0, 1.0, -1.0, -1.0),
-            "left_right": (-1.0, 1.0, -1.0, 1.0)}  # fmt: skip
+PATTERNS = {
+    "common": (1.0, 1.0, 1.0, 1.0),
+    "one": (0.0, 0.0, 0.0, 1.0),
+    "fore_aft": (1.0, 1.0, -1.0, -1.0),
+    "left_right": (-1.0, 1.0, -1.0, 1.0),
+}
 """Pattern -> sign of each wheel's offset (FR, FL, RR, RL)."""
 
 
@@ -44,8 +48,16 @@ def parse_offsets(text: str) -> list[float]:
     return out
 
 
-def sweep(runner, vx: float, offsets: list[float], patterns: list[str], gait_id: int, seconds: float = 6.0,
-          settle: float = 2.0, progress=print) -> list[dict]:
+def sweep(
+    runner,
+    vx: float,
+    offsets: list[float],
+    patterns: list[str],
+    gait_id: int,
+    seconds: float = 6.0,
+    settle: float = 2.0,
+    progress=print,
+) -> list[dict]:
     """One rollout of the forced gait ``gait_id`` per (pattern, offset), and the nominal gait (offset 0) first."""
     from wqwarp.eval.wheel_probe import rollout
 
@@ -61,9 +73,11 @@ def sweep(runner, vx: float, offsets: list[float], patterns: list[str], gait_id:
         r = rollout(runner, vx, seconds, settle, everything, wheels_fixed=[o / scale for o in offset])
         row = {"pattern": pattern, "offset_rad_s": d, "wheel_offsets_rad_s": offset, **r}
         out.append(row)
-        progress(f"{pattern:>10} {d:5.2f} rad/s: p_cost {r['p_cost']:6.1f} W (legs {r['p_cost_legs']:5.1f}, wheels "
-                 f"{r['p_cost_wheels']:5.1f}) | v_x {r['vx']:.3f} m/s | torque {r['wheel_torque']} | "
-                 f"fell {r['fell']}")  # fmt: skip
+        progress(
+            f"{pattern:>10} {d:5.2f} rad/s: p_cost {r['p_cost']:6.1f} W (legs {r['p_cost_legs']:5.1f}, wheels "
+            f"{r['p_cost_wheels']:5.1f}) | v_x {r['vx']:.3f} m/s | torque {r['wheel_torque']} | "
+            f"fell {r['fell']}"
+        )
     return out
 
 
@@ -73,18 +87,29 @@ def main(argv=None) -> int:
     ap.add_argument("--checkpoint", required=True, help="model_<it>.pt of an ours run (its configuration is used)")
     ap.add_argument("--preset", default=None, help="preset of the checkpoint (default: from its run's config.json)")
     ap.add_argument("--vx", type=float, default=0.8, help="held forward command [m/s] (default 0.8)")
-    ap.add_argument("--offsets", default="0.1,0.25,0.5,1",
-                    help="offset sizes [rad/s], comma-separated (default 0.1,0.25,0.5,1)")  # fmt: skip
-    ap.add_argument("--patterns", default=",".join(PATTERNS),
-                    help=f"patterns, comma-separated, of {', '.join(PATTERNS)} (default all)")  # fmt: skip
-    ap.add_argument("--gait", default="driving",
-                    help="gait of the library to force (default driving; a legged gait shows what the wheel gains do "
-                         "to its stance wheels)")  # fmt: skip
+    ap.add_argument(
+        "--offsets", default="0.1,0.25,0.5,1", help="offset sizes [rad/s], comma-separated (default 0.1,0.25,0.5,1)"
+    )
+    ap.add_argument(
+        "--patterns",
+        default=",".join(PATTERNS),
+        help=f"patterns, comma-separated, of {', '.join(PATTERNS)} (default all)",
+    )
+    ap.add_argument(
+        "--gait",
+        default="driving",
+        help="gait of the library to force (default driving; a legged gait shows what the wheel gains do "
+        "to its stance wheels)",
+    )
     ap.add_argument("--robots", type=int, default=8, help="robots (default 8; no domain randomisation)")
     ap.add_argument("--seconds", type=float, default=6.0, help="rollout length [s] (default 6, the first 2 settle)")
-    ap.add_argument("--wheel-ki", type=float, default=None,
-                    help="diagnostic: replace the checkpoint's wheel PID integral gain [N m/rad] (e.g. 0: P-only "
-                         "wheels, no integral to wind up against the other wheels)")  # fmt: skip
+    ap.add_argument(
+        "--wheel-ki",
+        type=float,
+        default=None,
+        help="diagnostic: replace the checkpoint's wheel PID integral gain [N m/rad] (e.g. 0: P-only "
+        "wheels, no integral to wind up against the other wheels)",
+    )
     ap.add_argument("--json", default=None, help="write every rollout's numbers here")
     args = ap.parse_args(argv)
     try:
@@ -123,17 +148,30 @@ def main(argv=None) -> int:
     except ValueError as e:
         raise UsageError(str(e)) from None
     if runner.env.num_actions != 20 or runner.env.gait_selector.name != "predictive":
-        raise UsageError(f"{runner.preset} has no gait to force with wheel residuals (want a predictive preset with "
-                         f"20 actions, e.g. ours)")  # fmt: skip
+        raise UsageError(
+            f"{runner.preset} has no gait to force with wheel residuals (want a predictive preset with "
+            f"20 actions, e.g. ours)"
+        )
     rows = sweep(runner, args.vx, offsets, patterns, gait_id, args.seconds)
     if args.json:
-        write_result_json(args.json, {"checkpoint": args.checkpoint, "preset": runner.preset, "gait": args.gait,
-                                      "vx": args.vx,
-                                      "robots": args.robots, "seconds": args.seconds, "settle": 2.0,
-                                      "wheel_scale_rad_s": float(runner.env.cfg.action.wheel_scale),
-                                      "wheel_pid": {k: getattr(runner.env.cfg.sim, k) for k in
-                                                    ("wheel_kp", "wheel_ki", "wheel_kd", "wheel_i_limit")},
-                                      "wheel_order": ["FR", "FL", "RR", "RL"], "rollouts": rows})  # fmt: skip
+        write_result_json(
+            args.json,
+            {
+                "checkpoint": args.checkpoint,
+                "preset": runner.preset,
+                "gait": args.gait,
+                "vx": args.vx,
+                "robots": args.robots,
+                "seconds": args.seconds,
+                "settle": 2.0,
+                "wheel_scale_rad_s": float(runner.env.cfg.action.wheel_scale),
+                "wheel_pid": {
+                    k: getattr(runner.env.cfg.sim, k) for k in ("wheel_kp", "wheel_ki", "wheel_kd", "wheel_i_limit")
+                },
+                "wheel_order": ["FR", "FL", "RR", "RL"],
+                "rollouts": rows,
+            },
+        )
     return 0
 
 

@@ -34,8 +34,12 @@ import sys
 from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.eval.wheel_probe import rollout
 
-ARMS = {"policy": ((), False), "zero_wheel_residuals": (("wheel",), False),
-        "zero_leg_residuals": (("phase", "foot"), False), "nominal": (("phase", "foot", "wheel"), False)}
+ARMS = {
+    "policy": ((), False),
+    "zero_wheel_residuals": (("wheel",), False),
+    "zero_leg_residuals": (("phase", "foot"), False),
+    "nominal": (("phase", "foot", "wheel"), False),
+}
 """Rollout name -> (action groups set to zero, sampled): the policy; its wheel residuals zeroed (wheels on the
 nominal velocities, legs the policy's); its leg residuals zeroed (phase and feet nominal, wheels the policy's);
 every residual zeroed (the nominal gait alone, as ``train/evaluate.py --zero-residual``)."""
@@ -56,12 +60,18 @@ def main(argv=None) -> int:
     ap.add_argument("--vx", type=float, default=0.8, help="held forward command [m/s] (default 0.8)")
     ap.add_argument("--robots", type=int, default=8, help="robots (default 8; no domain randomisation)")
     ap.add_argument("--seconds", type=float, default=6.0, help="rollout length [s] (default 6, the first 2 settle)")
-    ap.add_argument("--noise", action="store_true",
-                    help="also roll out with sampled actions (the policy's learned std, as in training), with and "
-                         "without the mean wheel actions")  # fmt: skip
-    ap.add_argument("--held-wheels", action="store_true",
-                    help="also roll out the policy's legs and the nominal gait with the wheel actions held at the "
-                         "policy's mean wheel action")  # fmt: skip
+    ap.add_argument(
+        "--noise",
+        action="store_true",
+        help="also roll out with sampled actions (the policy's learned std, as in training), with and "
+        "without the mean wheel actions",
+    )
+    ap.add_argument(
+        "--held-wheels",
+        action="store_true",
+        help="also roll out the policy's legs and the nominal gait with the wheel actions held at the "
+        "policy's mean wheel action",
+    )
     ap.add_argument("--seed", type=int, default=0, help="seed of the sampled actions (default 0)")
     ap.add_argument("--json", default=None, help="write every rollout's numbers here")
     args = ap.parse_args(argv)
@@ -92,19 +102,31 @@ def main(argv=None) -> int:
         except ValueError as e:  # --noise on a policy without an action distribution
             raise UsageError(str(e)) from None
         r = res[name]
-        print(f"{name:>21}: v_x {r['vx']:.3f} m/s | p_cost {r['p_cost']:6.1f} W (legs {r['p_cost_legs']:5.1f}, "
-              f"wheels {r['p_cost_wheels']:5.1f}; wheels mech {r['p_mech_wheels']:5.1f}, Joule "
-              f"{r['p_joule_wheels']:5.1f}) | wheel qd {r['wheel_qd']} | torque {r['wheel_torque']}")  # fmt: skip
+        print(
+            f"{name:>21}: v_x {r['vx']:.3f} m/s | p_cost {r['p_cost']:6.1f} W (legs {r['p_cost_legs']:5.1f}, "
+            f"wheels {r['p_cost_wheels']:5.1f}; wheels mech {r['p_mech_wheels']:5.1f}, Joule "
+            f"{r['p_joule_wheels']:5.1f}) | wheel qd {r['wheel_qd']} | torque {r['wheel_torque']}"
+        )
     pairs = [("policy", b) for b in list(ARMS)[1:] + (list(HELD_ARMS) if args.held_wheels else [])]
     pairs += [tuple(NOISE_ARMS)] if args.noise else []
     for a, b in pairs:
         rp, rz = res[a]["reward_per_s"], res[b]["reward_per_s"]
-        print(f"reward per second, {a} -> {b}: "
-              + ", ".join(f"{k} {rp[k]:+.3f} -> {rz[k]:+.3f}" for k in rp if rp[k] or rz[k]))  # fmt: skip
-    out = {"checkpoint": args.checkpoint, "preset": runner.preset, "iteration": runner.iteration, "vx": args.vx,
-           "robots": args.robots, "seconds": args.seconds, "settle": 2.0,
-           "noise_seed": args.seed if args.noise else None, "wheel_order": ["FR", "FL", "RR", "RL"],
-           "results": res}  # fmt: skip
+        print(
+            f"reward per second, {a} -> {b}: "
+            + ", ".join(f"{k} {rp[k]:+.3f} -> {rz[k]:+.3f}" for k in rp if rp[k] or rz[k])
+        )
+    out = {
+        "checkpoint": args.checkpoint,
+        "preset": runner.preset,
+        "iteration": runner.iteration,
+        "vx": args.vx,
+        "robots": args.robots,
+        "seconds": args.seconds,
+        "settle": 2.0,
+        "noise_seed": args.seed if args.noise else None,
+        "wheel_order": ["FR", "FL", "RR", "RL"],
+        "results": res,
+    }
     if args.json:
         write_result_json(args.json, out)
     return 0

@@ -77,12 +77,21 @@ def run(kp, ki, kd, i_limit, dt, decimation, mode, target, seconds) -> dict:
     flips = int(np.sum((sig[1:] * sig[:-1]) < 0))
     tail = t > seconds - 0.5
     return {
-        "mode": mode, "kp": kp, "ki": ki, "kd": kd, "dt": dt, "decimation": decimation, "target_rad_s": target,
-        "rise_s": None if rise is None else float(rise), "overshoot_pct": float(100 * (w.max() / target - 1)),
+        "mode": mode,
+        "kp": kp,
+        "ki": ki,
+        "kd": kd,
+        "dt": dt,
+        "decimation": decimation,
+        "target_rad_s": target,
+        "rise_s": None if rise is None else float(rise),
+        "overshoot_pct": float(100 * (w.max() / target - 1)),
         "settle_s": settle if settle < seconds - 0.5 else None,
-        "steady_err_pct": float(100 * abs(wm[tail].mean() / target - 1)), "sign_flips_after_settle": flips,
-        "p_cost_per_wheel_w": float(pw[tail].mean() / 4), "base_vx": float(np.mean(vx[-int(0.5 / dt):])),
-    }  # fmt: skip
+        "steady_err_pct": float(100 * abs(wm[tail].mean() / target - 1)),
+        "sign_flips_after_settle": flips,
+        "p_cost_per_wheel_w": float(pw[tail].mean() / 4),
+        "base_vx": float(np.mean(vx[-int(0.5 / dt) :])),
+    }
 
 
 def _fmt(x, spec):
@@ -108,7 +117,7 @@ def main(argv=None) -> int:
     )
     ap.add_argument("--modes", default="loaded,airborne", help="comma-separated: loaded, airborne (default both)")
     ap.add_argument("--json", default=None, help="also write the results to this JSON file")
-    args = ap.parse_args(argv)  # fmt: skip
+    args = ap.parse_args(argv)
     try:
         sets = [tuple(float(x) for x in g.split(",")) for g in args.gains.split(";")]
         if any(len(s) != 3 for s in sets):
@@ -128,8 +137,10 @@ def main(argv=None) -> int:
         raise UsageError(f"--json {args.json!r}: {problem}")
     from wqwarp.robot import constants as C
 
-    print(f"{'mode':>8} {'dt':>6} {'kp':>5} {'ki':>5} {'kd':>5} {'rise[s]':>8} {'overshoot%':>10} {'settle[s]':>9} "
-          f"{'steady err%':>11} {'flips':>6} {'W/wheel':>8} {'base vx':>8}")  # fmt: skip
+    print(
+        f"{'mode':>8} {'dt':>6} {'kp':>5} {'ki':>5} {'kd':>5} {'rise[s]':>8} {'overshoot%':>10} {'settle[s]':>9} "
+        f"{'steady err%':>11} {'flips':>6} {'W/wheel':>8} {'base vx':>8}"
+    )
     results = []
     for mode in modes:
         target = C.WHEEL_FORWARD_SIGN * args.speed / C.WHEEL_RADIUS if mode == "loaded" else args.air_target
@@ -137,10 +148,12 @@ def main(argv=None) -> int:
             for kp, ki, kd in sets:
                 r = run(kp, ki, kd, args.i_limit, dt, dec, mode, target, args.seconds)
                 results.append(r)
-                print(f"{mode:>8} {dt:6.3f} {kp:5.2f} {ki:5.2f} {kd:5.2f} {_fmt(r['rise_s'], '8.3f')} "
-                      f"{r['overshoot_pct']:10.1f} {_fmt(r['settle_s'], '9.3f')} {r['steady_err_pct']:11.2f} "
-                      f"{r['sign_flips_after_settle']:6d} {r['p_cost_per_wheel_w']:8.3f} {r['base_vx']:8.3f}",
-                      flush=True)  # fmt: skip
+                print(
+                    f"{mode:>8} {dt:6.3f} {kp:5.2f} {ki:5.2f} {kd:5.2f} {_fmt(r['rise_s'], '8.3f')} "
+                    f"{r['overshoot_pct']:10.1f} {_fmt(r['settle_s'], '9.3f')} {r['steady_err_pct']:11.2f} "
+                    f"{r['sign_flips_after_settle']:6d} {r['p_cost_per_wheel_w']:8.3f} {r['base_vx']:8.3f}",
+                    flush=True,
+                )
     if args.json:
         from wqwarp.utils.provenance import write_result_json
 

@@ -82,8 +82,7 @@ def tyro_cli(cls: type, default: object, argv: Sequence[str], prog: str, descrip
     err = io.StringIO()
     try:
         with contextlib.redirect_stderr(err):
-            out = tyro.cli(cls, default=default, args=list(argv), prog=prog, description=description,
-                           config=config)  # fmt: skip
+            out = tyro.cli(cls, default=default, args=list(argv), prog=prog, description=description, config=config)
     except SystemExit as e:
         if e.code not in (0, None):
             raise UsageError(tyro_error_line(err.getvalue())) from None
@@ -132,8 +131,12 @@ def doc_parser(doc: str, epilog_from: int = 1, **kwargs) -> ArgumentParser:
     """The parser of a command whose module docstring ``doc`` is its help: the first paragraph the description, the
     paragraphs from ``epilog_from`` on the epilog, printed as written (``--help``)."""
     parts = doc.split("\n\n")
-    return ArgumentParser(description=parts[0], epilog="\n\n".join(parts[epilog_from:]),
-                          formatter_class=argparse.RawDescriptionHelpFormatter, **kwargs)  # fmt: skip
+    return ArgumentParser(
+        description=parts[0],
+        epilog="\n\n".join(parts[epilog_from:]),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        **kwargs,
+    )
 
 
 def add_result_options(ap: argparse.ArgumentParser, plot: str | None = "the figure") -> None:

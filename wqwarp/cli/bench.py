@@ -144,9 +144,12 @@ def main(argv: list[str] | None = None) -> int:
     add_bench_options(ap, "1,64,256,1024")
     ap.add_argument("--backend", default="auto", help="auto | mujoco_cpu | mujoco_warp (default auto)")
     ap.add_argument("--seconds", type=float, default=2.0, help="minimum timed wall time per measurement (default 2)")
-    ap.add_argument("--no-cuda-graph", action="store_true",
-                    help="mujoco_warp on CUDA: launch the decimation loop's kernels one by one instead of replaying "
-                    "a captured CUDA graph (to measure what the graph saves)")  # fmt: skip
+    ap.add_argument(
+        "--no-cuda-graph",
+        action="store_true",
+        help="mujoco_warp on CUDA: launch the decimation loop's kernels one by one instead of replaying "
+        "a captured CUDA graph (to measure what the graph saves)",
+    )
     args, sizes = parse_bench_args(ap, argv)
     import warp as wp
 
@@ -155,16 +158,21 @@ def main(argv: list[str] | None = None) -> int:
     quiet_warp()
     desc = device_description(wp.get_device(args.device))
     results = []
-    header = f"{'N':>6} {'backend':>12} {'setup[s]':>9} {'backend st/s':>13} {'raw st/s':>11} {'ratio':>6} " \
-             f"{'policy st/s':>12} {'policy/raw':>10}"  # fmt: skip
+    header = (
+        f"{'N':>6} {'backend':>12} {'setup[s]':>9} {'backend st/s':>13} {'raw st/s':>11} {'ratio':>6} "
+        f"{'policy st/s':>12} {'policy/raw':>10}"
+    )
     print(f"device: {desc}\n{header}", flush=True)
     for n in sizes:
         r = bench_size(n, args.device, args.backend, args.seconds, cuda_graph=not args.no_cuda_graph)
         r["cuda_graph"] = not args.no_cuda_graph
         results.append(r)
-        print(f"{r['n']:>6} {r['backend']:>12} {r['setup_s']:>9.2f} {r['backend_steps_per_s']:>13.0f} "
-              f"{r['raw_steps_per_s']:>11.0f} {r['ratio']:>6.2f} {r['policy_steps_per_s']:>12.0f} "
-              f"{r['policy_vs_raw']:>10.2f}", flush=True)  # fmt: skip
+        print(
+            f"{r['n']:>6} {r['backend']:>12} {r['setup_s']:>9.2f} {r['backend_steps_per_s']:>13.0f} "
+            f"{r['raw_steps_per_s']:>11.0f} {r['ratio']:>6.2f} {r['policy_steps_per_s']:>12.0f} "
+            f"{r['policy_vs_raw']:>10.2f}",
+            flush=True,
+        )
     if args.json:
         from wqwarp.utils.provenance import write_result_json
 

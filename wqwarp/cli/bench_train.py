@@ -44,9 +44,22 @@ from wqwarp.cli.args import UsageError, doc_parser, entry_point
 from wqwarp.cli.bench import add_bench_options, device_description, parse_bench_args
 from wqwarp.rl.algorithm import WqPPO
 
-STAGES = ("physics", "sim_kernels", "env_kernels", "env_resets", "estimator_inference", "gait_selection",
-          "env_torch", "policy_inference", "storage", "returns", "ppo_update", "estimator_fit", "predictor_fit",
-          "other")  # fmt: skip
+STAGES = (
+    "physics",
+    "sim_kernels",
+    "env_kernels",
+    "env_resets",
+    "estimator_inference",
+    "gait_selection",
+    "env_torch",
+    "policy_inference",
+    "storage",
+    "returns",
+    "ppo_update",
+    "estimator_fit",
+    "predictor_fit",
+    "other",
+)
 
 
 def _spin(stop, parent: int) -> None:
@@ -263,19 +276,33 @@ def bench(n: int, args, threads: dict) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = doc_parser(__doc__)
     add_bench_options(ap, "128,256,512")
-    ap.add_argument("--task", default="ours", help="training task whose configuration is timed (wqwarp/rl/tasks.py; "
-                    "default ours: the most work per step)")
+    ap.add_argument(
+        "--task",
+        default="ours",
+        help="training task whose configuration is timed (wqwarp/rl/tasks.py; default ours: the most work per step)",
+    )
     ap.add_argument("--iterations", type=int, default=6, help="timed training iterations per N (default 6)")
     ap.add_argument("--steps-per-env", type=int, default=24, help="rollout length per iteration (default 24)")
-    ap.add_argument("--seconds", type=float, default=3.0,
-                    help="minimum wall time of the simulator and collection measurements (default 3)")  # fmt: skip
-    ap.add_argument("--threads", type=int, default=None,
-                    help="torch and physics threads together (default: the training defaults, wqwarp.utils.threads)")
+    ap.add_argument(
+        "--seconds",
+        type=float,
+        default=3.0,
+        help="minimum wall time of the simulator and collection measurements (default 3)",
+    )
+    ap.add_argument(
+        "--threads",
+        type=int,
+        default=None,
+        help="torch and physics threads together (default: the training defaults, wqwarp.utils.threads)",
+    )
     ap.add_argument("--torch-threads", type=int, default=None, help="torch intra-op threads (overrides --threads)")
-    ap.add_argument("--physics-threads", type=int, default=None,
-                    help="mujoco.rollout threads (overrides --threads)")  # fmt: skip
-    ap.add_argument("--update-threads", type=int, default=None,
-                    help="torch threads during the PPO update and fits (overrides --threads)")  # fmt: skip
+    ap.add_argument("--physics-threads", type=int, default=None, help="mujoco.rollout threads (overrides --threads)")
+    ap.add_argument(
+        "--update-threads",
+        type=int,
+        default=None,
+        help="torch threads during the PPO update and fits (overrides --threads)",
+    )
     ap.add_argument("--busy", type=int, default=0, help="processes spinning one core each while measuring (default 0)")
     ap.add_argument("--seed", type=int, default=1, help="seed of the env and the networks (default 1)")
     args, sizes = parse_bench_args(ap, argv)
@@ -306,11 +333,16 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as e:
         raise UsageError(f"--{e}") from None
     desc = device_description(dev)
-    print(f"device: {desc}; task {args.task}; threads torch {threads['torch']} update {threads['update']} "
-          f"physics {threads['physics']}; "
-          f"{args.busy} busy core(s)", flush=True)  # fmt: skip
-    print(f"{'N':>6} {'sim st/s':>10} {'collect st/s':>13} {'train st/s':>11} {'train/sim':>9}  slowest stages",
-          flush=True)  # fmt: skip
+    print(
+        f"device: {desc}; task {args.task}; threads torch {threads['torch']} update {threads['update']} "
+        f"physics {threads['physics']}; "
+        f"{args.busy} busy core(s)",
+        flush=True,
+    )
+    print(
+        f"{'N':>6} {'sim st/s':>10} {'collect st/s':>13} {'train st/s':>11} {'train/sim':>9}  slowest stages",
+        flush=True,
+    )
     results = []
     with Busy(args.busy):
         for n in sizes:
@@ -318,12 +350,22 @@ def main(argv: list[str] | None = None) -> int:
             results.append(r)
             top = sorted(r["breakdown_s"].items(), key=lambda kv: -kv[1])[:4]
             stages = ", ".join(f"{k} {v * 1e3:.0f} ms" for k, v in top)
-            print(f"{n:>6} {r['sim_steps_per_s']:>10.0f} {r['collect_steps_per_s']:>13.0f} "
-                  f"{r['train_steps_per_s']:>11.0f} {r['train_vs_sim']:>9.2f}  {stages}", flush=True)  # fmt: skip
+            print(
+                f"{n:>6} {r['sim_steps_per_s']:>10.0f} {r['collect_steps_per_s']:>13.0f} "
+                f"{r['train_steps_per_s']:>11.0f} {r['train_vs_sim']:>9.2f}  {stages}",
+                flush=True,
+            )
     if args.json:
-        out = {"device": desc, "task": args.task, "threads": threads, "busy_cores": args.busy,
-               "iterations": args.iterations, "steps_per_env": args.steps_per_env, "seed": args.seed,
-               "results": results}  # fmt: skip
+        out = {
+            "device": desc,
+            "task": args.task,
+            "threads": threads,
+            "busy_cores": args.busy,
+            "iterations": args.iterations,
+            "steps_per_env": args.steps_per_env,
+            "seed": args.seed,
+            "results": results,
+        }
         provenance.write_result_json(args.json, out)
         print(f"wrote {args.json}")
     return 0

@@ -98,8 +98,16 @@ def setting_name(dt: float, decimation: int) -> str:
     return f"{dt:g}x{decimation}"
 
 
-def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: float, num_envs: int,
-                 backend: str = "auto", trace: list | None = None) -> dict:
+def run_scenario(
+    name: str,
+    dt: float,
+    decimation: int,
+    warmup: float,
+    seconds: float,
+    num_envs: int,
+    backend: str = "auto",
+    trace: list | None = None,
+) -> dict:
     """Run one scenario at one physics setting and return its window means (see the module docstring). With
     ``trace`` (a list), append per policy step, warm-up included, the robot means of time [s], trunk height [m],
     base v_x [m/s], yaw rate [rad/s] and p_cost (legs, wheels) [W] as a dict."""
@@ -115,8 +123,9 @@ def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: 
     # air_wheels: a decimation-1 simulator stepped `decimation` times per policy step (same physics, the targets
     # being constant) so that every substep's torque is seen; the gaits use the setting as the policy would.
     sim_steps = decimation if airborne else 1
-    sim = Simulator(SimConfig(num_envs=n, device="cpu", dt=dt, decimation=1 if airborne else decimation,
-                              backend=backend))
+    sim = Simulator(
+        SimConfig(num_envs=n, device="cpu", dt=dt, decimation=1 if airborne else decimation, backend=backend)
+    )
     policy_dt = dt * decimation
     warmup_steps = int(round(warmup / policy_dt))
     window_steps = int(round(seconds / policy_dt))
@@ -170,9 +179,15 @@ def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: 
         step_wz = float(jqd[:, 5].mean())  # yaw rate: world-frame angular velocity about z
         step_z = float(jq[:, 2].mean())
         if trace is not None:
-            trace.append({"t": (k + 1) * policy_dt, "height": step_z, "v_x": step_vx, "w_z": step_wz,
-                          **{p: float(getattr(sim, p).numpy().mean()) for p in ("p_cost", "p_cost_legs",
-                                                                                 "p_cost_wheels")}})  # fmt: skip
+            trace.append(
+                {
+                    "t": (k + 1) * policy_dt,
+                    "height": step_z,
+                    "v_x": step_vx,
+                    "w_z": step_wz,
+                    **{p: float(getattr(sim, p).numpy().mean()) for p in ("p_cost", "p_cost_legs", "p_cost_wheels")},
+                }
+            )
         if not in_window:
             continue
         vx += step_vx
@@ -194,15 +209,17 @@ def run_scenario(name: str, dt: float, decimation: int, warmup: float, seconds: 
         "trunk_contact_steps": trunk_steps,
     }
     if airborne:
-        out.update({
-            "start_height": start_height,
-            "wheel_speed_target": AIR_WHEEL_SPEED,
-            "p_cost_per_wheel": (wheel_p * m).tolist(),
-            "wheel_speed": (wheel_qd * m).tolist(),
-            "wheel_speed_max_error": wheel_err,
-            "wheel_torque_sign_flips": flips,
-            "wheel_torque_substep_pairs": flip_pairs,
-        })  # fmt: skip
+        out.update(
+            {
+                "start_height": start_height,
+                "wheel_speed_target": AIR_WHEEL_SPEED,
+                "p_cost_per_wheel": (wheel_p * m).tolist(),
+                "wheel_speed": (wheel_qd * m).tolist(),
+                "wheel_speed_max_error": wheel_err,
+                "wheel_torque_sign_flips": flips,
+                "wheel_torque_substep_pairs": flip_pairs,
+            }
+        )
     return out
 
 
@@ -210,8 +227,15 @@ def _ratio(a: float, b: float) -> float | None:
     return a / b if b > 0 else None
 
 
-def audit(scenarios: list[str], settings: list[tuple[float, int]], warmup: float, seconds: float, num_envs: int,
-          quiet: bool = False, backend: str = "auto") -> dict:  # fmt: skip
+def audit(
+    scenarios: list[str],
+    settings: list[tuple[float, int]],
+    warmup: float,
+    seconds: float,
+    num_envs: int,
+    quiet: bool = False,
+    backend: str = "auto",
+) -> dict:
     """Every scenario at every setting: {scenario: {"gait", "command", "results": {setting: {...}}, "ratio"}}."""
     out = {}
     t0 = time.perf_counter()
@@ -223,10 +247,16 @@ def audit(scenarios: list[str], settings: list[tuple[float, int]], warmup: float
             results[s] = run_scenario(name, dt, decimation, warmup, seconds, num_envs, backend)
             if not quiet:
                 r = results[s]
-                print(f"[{time.perf_counter() - t0:7.1f} s] {name:<10} dt {s:<8} p_cost {r['p_cost']:7.2f} W "
-                      f"(legs {r['p_cost_legs']:.2f}, wheels {r['p_cost_wheels']:.2f})", file=sys.stderr)  # fmt: skip
-        entry = {"gait": gait or "none (free fall, legs held, wheels at 5 rad/s)", "command": list(command),
-                 "results": results}  # fmt: skip
+                print(
+                    f"[{time.perf_counter() - t0:7.1f} s] {name:<10} dt {s:<8} p_cost {r['p_cost']:7.2f} W "
+                    f"(legs {r['p_cost_legs']:.2f}, wheels {r['p_cost_wheels']:.2f})",
+                    file=sys.stderr,
+                )
+        entry = {
+            "gait": gait or "none (free fall, legs held, wheels at 5 rad/s)",
+            "command": list(command),
+            "results": results,
+        }
         if len(settings) > 1:
             first, last = results[setting_name(*settings[0])], results[setting_name(*settings[-1])]
             entry["ratio"] = {p: _ratio(first[p], last[p]) for p in ("p_cost", "p_cost_legs", "p_cost_wheels")}
@@ -249,19 +279,24 @@ def table(report: dict) -> str:
         res = [entry["results"][s] for s in names]
         row = [name] + [f"{r['p_cost']:.2f} ({r['p_cost_legs']:.2f} / {r['p_cost_wheels']:.2f})" for r in res]
         ratio = entry.get("ratio")
-        row.append("-" if ratio is None else f"{_fmt(ratio['p_cost'])} ({_fmt(ratio['p_cost_legs'])} / "
-                   f"{_fmt(ratio['p_cost_wheels'])})")  # fmt: skip
+        row.append(
+            "-"
+            if ratio is None
+            else f"{_fmt(ratio['p_cost'])} ({_fmt(ratio['p_cost_legs'])} / {_fmt(ratio['p_cost_wheels'])})"
+        )
         row.append(" / ".join(f"{r['v_x']:.2f}" for r in res))
         if entry["results"][names[0]].get("start_height") is not None:
             row.append("free fall")
             for s, r in zip(names, res, strict=True):
                 per_wheel = ", ".join(f"{p:.3f}" for p in r["p_cost_per_wheel"])
                 speed = ", ".join(f"{v:.3f}" for v in r["wheel_speed"])
-                notes.append(f"- air_wheels at dt {s}: p_cost per wheel (FR, FL, RR, RL) {per_wheel} W; wheel speed "
-                             f"{speed} rad/s (target {r['wheel_speed_target']:g}, largest error "
-                             f"{r['wheel_speed_max_error']:.3f}); {r['wheel_torque_sign_flips']} wheel-torque sign "
-                             f"flips over {r['wheel_torque_substep_pairs']} consecutive-substep pairs x 4 wheels x "
-                             f"{report['num_envs']} robot(s)")  # fmt: skip
+                notes.append(
+                    f"- air_wheels at dt {s}: p_cost per wheel (FR, FL, RR, RL) {per_wheel} W; wheel speed "
+                    f"{speed} rad/s (target {r['wheel_speed_target']:g}, largest error "
+                    f"{r['wheel_speed_max_error']:.3f}); {r['wheel_torque_sign_flips']} wheel-torque sign "
+                    f"flips over {r['wheel_torque_substep_pairs']} consecutive-substep pairs x 4 wheels x "
+                    f"{report['num_envs']} robot(s)"
+                )
         else:
             row.append(" / ".join(f"{r['height']:.3f}" for r in res))
         for s, r in zip(names, res, strict=True):
@@ -271,9 +306,11 @@ def table(report: dict) -> str:
         lines.append("| " + " | ".join(row) + " |")
     settings = ", ".join(f"dt {s['dt']:g} s x {s['decimation']}" for s in report["settings"])
     lines.append("")
-    lines.append(f"Settings: {settings}; ratio = first / last setting; v_x and height listed per setting. "
-                 f"Mean over {report['seconds']:g} s after {report['warmup']:g} s warm-up, "
-                 f"{report['num_envs']} robot(s).")  # fmt: skip
+    lines.append(
+        f"Settings: {settings}; ratio = first / last setting; v_x and height listed per setting. "
+        f"Mean over {report['seconds']:g} s after {report['warmup']:g} s warm-up, "
+        f"{report['num_envs']} robot(s)."
+    )
     if notes:
         lines += [""] + notes
     return "\n".join(lines)
@@ -281,19 +318,28 @@ def table(report: dict) -> str:
 
 def _parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap = doc_parser(__doc__)
-    ap.add_argument("--scenarios", default=",".join(SCENARIOS),
-                    help=f"comma-separated scenarios (default: all: {', '.join(SCENARIOS)})")  # fmt: skip
-    ap.add_argument("--settings", default=DEFAULT_SETTINGS,
-                    help=f"comma-separated physics settings DTxDECIMATION: substep dt [s] x substeps per policy step "
-                         f"(default {DEFAULT_SETTINGS}; the ratio is first / last)")  # fmt: skip
+    ap.add_argument(
+        "--scenarios",
+        default=",".join(SCENARIOS),
+        help=f"comma-separated scenarios (default: all: {', '.join(SCENARIOS)})",
+    )
+    ap.add_argument(
+        "--settings",
+        default=DEFAULT_SETTINGS,
+        help=f"comma-separated physics settings DTxDECIMATION: substep dt [s] x substeps per policy step "
+        f"(default {DEFAULT_SETTINGS}; the ratio is first / last)",
+    )
     ap.add_argument("--warmup", type=float, default=1.0, help="simulated time before the window [s] (default 1.0)")
     ap.add_argument("--seconds", type=float, default=3.0, help="length of the averaging window [s] (default 3.0)")
     ap.add_argument("--num-envs", type=int, default=2, help="robots per scenario and setting (default 2)")
-    ap.add_argument("--json", default=None,
-                    help=f"output JSON path (default {DEFAULT_JSON} in the repository root)")  # fmt: skip
-    ap.add_argument("--backend", default="auto", choices=("auto", "mujoco_cpu", "featherstone"),
-                    help="physics: auto (MuJoCo on the CPU), mujoco_cpu, or featherstone (the differentiable path's "
-                         "solver with spring-damper contact, SimConfig.contact_*)")  # fmt: skip
+    ap.add_argument("--json", default=None, help=f"output JSON path (default {DEFAULT_JSON} in the repository root)")
+    ap.add_argument(
+        "--backend",
+        default="auto",
+        choices=("auto", "mujoco_cpu", "featherstone"),
+        help="physics: auto (MuJoCo on the CPU), mujoco_cpu, or featherstone (the differentiable path's "
+        "solver with spring-damper contact, SimConfig.contact_*)",
+    )
     ap.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     return ap.parse_args(argv)
 
@@ -326,8 +372,11 @@ def main(argv: list[str] | None = None) -> int:
     from wqwarp.sim.config import SimConfig
     from wqwarp.utils.provenance import git_state, write_result_json
 
-    sim_config = {k: v for k, v in dataclasses.asdict(SimConfig(backend=args.backend)).items()
-                  if k not in ("num_envs", "dt", "decimation")}  # fmt: skip
+    sim_config = {
+        k: v
+        for k, v in dataclasses.asdict(SimConfig(backend=args.backend)).items()
+        if k not in ("num_envs", "dt", "decimation")
+    }
     report = {
         "command": shlex.join(["python", "tools/energy_audit.py", *(sys.argv[1:] if argv is None else argv)]),
         "git": git_state(),

@@ -52,9 +52,9 @@ def _take_protocol(argv: list[str]) -> tuple[str | None, list[str]]:
         if token == "--protocol":
             if i + 1 >= len(argv):
                 raise UsageError("--protocol expects a name")
-            return argv[i + 1], argv[:i] + argv[i + 2:]
+            return argv[i + 1], argv[:i] + argv[i + 2 :]
         if token.startswith("--protocol="):
-            return token.partition("=")[2], argv[:i] + argv[i + 1:]
+            return token.partition("=")[2], argv[:i] + argv[i + 1 :]
     return None, argv
 
 

@@ -259,8 +259,13 @@ def run_policy(args, schedule: CommandSchedule) -> tuple[RolloutRecorder, dict, 
             rec.capture(step, sim, env.nominal)
             progress(step)
     env.hold_commands(None)
-    meta = {"mode": "policy", "checkpoint": os.path.abspath(args.checkpoint), "preset": runner.preset,
-            "iteration": runner.iteration, "device": str(args.device)}  # fmt: skip
+    meta = {
+        "mode": "policy",
+        "checkpoint": os.path.abspath(args.checkpoint),
+        "preset": runner.preset,
+        "iteration": runner.iteration,
+        "device": str(args.device),
+    }
     return rec, meta, progress.wall
 
 

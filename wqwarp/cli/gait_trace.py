@@ -45,10 +45,18 @@ def trace(gait: str, vx: float, vy: float, wz: float, seconds: float, dt: float)
     for k in range(int(round(seconds / dt))):
         driver.step()
         psi = ng.swing_psi.numpy()[0]
-        rows.append(np.concatenate([
-            [(k + 1) * dt], ng.phase.numpy()[0], (psi >= 0).astype(np.float32), ng.foot_target.numpy()[0][:, 2],
-            ng.wheel_velocity.numpy()[0], ng.leg_joint_target.numpy()[0],
-        ]))  # fmt: skip
+        rows.append(
+            np.concatenate(
+                [
+                    [(k + 1) * dt],
+                    ng.phase.numpy()[0],
+                    (psi >= 0).astype(np.float32),
+                    ng.foot_target.numpy()[0][:, 2],
+                    ng.wheel_velocity.numpy()[0],
+                    ng.leg_joint_target.numpy()[0],
+                ]
+            )
+        )
     return np.asarray(rows)
 
 

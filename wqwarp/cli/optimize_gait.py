@@ -34,14 +34,18 @@ def _fmt(x, spec=".1f"):
 
 
 def table(report: dict) -> str:
-    rows = ["| physics | params | energy / m [J/m] | p_cost [W] (legs / wheels) | v_x [m/s] | height [m] | trunk hit |",
-            "|---|---|---|---|---|---|---|"]  # fmt: skip
+    rows = [
+        "| physics | params | energy / m [J/m] | p_cost [W] (legs / wheels) | v_x [m/s] | height [m] | trunk hit |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for ev in report["evaluations"]:
         for which in ("start", "tuned"):
             r = ev[which]
-            rows.append(f"| {ev['name']} | {which} | {_fmt(r['energy_per_m'])} | {r['p_cost']:.1f} "
-                        f"({r['p_cost_legs']:.1f} / {r['p_cost_wheels']:.1f}) | {r['vx']:.3f} | {r['height']:.3f} | "
-                        f"{'yes' if r['trunk_touched'] else 'no'} |")  # fmt: skip
+            rows.append(
+                f"| {ev['name']} | {which} | {_fmt(r['energy_per_m'])} | {r['p_cost']:.1f} "
+                f"({r['p_cost_legs']:.1f} / {r['p_cost_wheels']:.1f}) | {r['vx']:.3f} | {r['height']:.3f} | "
+                f"{'yes' if r['trunk_touched'] else 'no'} |"
+            )
     return "\n".join(rows)
 
 
@@ -53,24 +57,45 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--gait", default=d.gait, help=f"Table I gait to tune (default {d.gait})")
     ap.add_argument("--vx", type=float, default=d.vx, help=f"commanded forward speed [m/s] (default {d.vx})")
     ap.add_argument("--iterations", type=int, default=d.iterations, help=f"Adam steps (default {d.iterations})")
-    ap.add_argument("--lr", type=float, default=d.lr,
-                    help=f"Adam step in units of the parameter scales (default {d.lr})")  # fmt: skip
-    ap.add_argument("--dt", type=float, default=d.dt, help=f"physics step of the differentiable rollout [s] (default "
-                    f"{d.dt}; 0.005 makes the contact chatter, see docs/studies/diffsim)")  # fmt: skip
+    ap.add_argument(
+        "--lr", type=float, default=d.lr, help=f"Adam step in units of the parameter scales (default {d.lr})"
+    )
+    ap.add_argument(
+        "--dt",
+        type=float,
+        default=d.dt,
+        help=f"physics step of the differentiable rollout [s] (default "
+        f"{d.dt}; 0.005 makes the contact chatter, see docs/studies/diffsim)",
+    )
     ap.add_argument("--horizon", type=float, default=d.horizon_s, help=f"taped window [s] (default {d.horizon_s})")
     ap.add_argument("--warmup", type=float, default=d.warmup_s, help=f"untaped warm-up [s] (default {d.warmup_s})")
-    ap.add_argument("--windows", type=int, default=d.windows, help=f"robots (phase-spread windows) per iteration "
-                    f"(default {d.windows})")  # fmt: skip
-    ap.add_argument("--accept-seconds", type=float, default=d.accept_seconds, help="untaped measurement after the "
-                    f"warm-up that picks the best iterate and triggers restarts [s]; 0: the taped windows' J (default "
-                    f"{d.accept_seconds})")  # fmt: skip
-    ap.add_argument("--patience", type=int, default=d.patience, help=f"iterations without a better J before returning "
-                    f"to the best iterate with half the step (default {d.patience})")  # fmt: skip
+    ap.add_argument(
+        "--windows",
+        type=int,
+        default=d.windows,
+        help=f"robots (phase-spread windows) per iteration (default {d.windows})",
+    )
+    ap.add_argument(
+        "--accept-seconds",
+        type=float,
+        default=d.accept_seconds,
+        help="untaped measurement after the "
+        f"warm-up that picks the best iterate and triggers restarts [s]; 0: the taped windows' J (default "
+        f"{d.accept_seconds})",
+    )
+    ap.add_argument(
+        "--patience",
+        type=int,
+        default=d.patience,
+        help=f"iterations without a better J before returning "
+        f"to the best iterate with half the step (default {d.patience})",
+    )
     ap.add_argument("--free", default=",".join(d.free), help="comma-separated parameters to tune (default: all five)")
     ap.add_argument("--w-speed", type=float, default=d.w_speed, help=f"speed penalty w_v (default {d.w_speed:g})")
     ap.add_argument("--w-height", type=float, default=d.w_height, help=f"height penalty w_h (default {d.w_height:g})")
-    ap.add_argument("--eval-seconds", type=float, default=3.0,
-                    help="evaluation window after 1 s warm-up [s] (default 3)")  # fmt: skip
+    ap.add_argument(
+        "--eval-seconds", type=float, default=3.0, help="evaluation window after 1 s warm-up [s] (default 3)"
+    )
     ap.add_argument("--no-eval", action="store_true", help="skip the before/after evaluation")
     add_result_options(ap, plot=None)
     args = ap.parse_args(argv)
@@ -96,17 +121,31 @@ def main(argv: list[str] | None = None) -> int:
     quiet_warp()
     from wqwarp.diff.tuning import evaluate, optimize
 
-    cfg = TuneConfig(gait=args.gait, vx=args.vx, dt=args.dt, horizon_s=args.horizon, warmup_s=args.warmup,
-                     windows=args.windows, iterations=args.iterations, lr=args.lr, w_speed=args.w_speed,
-                     w_height=args.w_height, free=free, patience=args.patience,
-                     accept_seconds=args.accept_seconds)  # fmt: skip
+    cfg = TuneConfig(
+        gait=args.gait,
+        vx=args.vx,
+        dt=args.dt,
+        horizon_s=args.horizon,
+        warmup_s=args.warmup,
+        windows=args.windows,
+        iterations=args.iterations,
+        lr=args.lr,
+        w_speed=args.w_speed,
+        w_height=args.w_height,
+        free=free,
+        patience=args.patience,
+        accept_seconds=args.accept_seconds,
+    )
     t0 = time.time()
 
     def progress(e):
-        print(f"[{time.time() - t0:6.1f} s] it {e['iteration']:3d} J {e['J']:8.1f} (accept {e['J_accept']:7.1f}) "
-              f"p_cost {e['p_cost']:6.1f} W v_x {e['vx']:.3f} z {e['height']:.3f} params "
-              f"{' '.join(f'{x:.4f}' for x in e['params'])}",
-              file=sys.stderr, flush=True)  # fmt: skip
+        print(
+            f"[{time.time() - t0:6.1f} s] it {e['iteration']:3d} J {e['J']:8.1f} (accept {e['J_accept']:7.1f}) "
+            f"p_cost {e['p_cost']:6.1f} W v_x {e['vx']:.3f} z {e['height']:.3f} params "
+            f"{' '.join(f'{x:.4f}' for x in e['params'])}",
+            file=sys.stderr,
+            flush=True,
+        )
 
     result = optimize(cfg, progress)
     report = {"tuning": result, "evaluations": []}
@@ -120,8 +159,11 @@ def main(argv: list[str] | None = None) -> int:
             s, t = ev["start"]["energy_per_m"], ev["tuned"]["energy_per_m"]
             ev["energy_ratio"] = t / s if s and t else None
             report["evaluations"].append(ev)
-            print(f"[{time.time() - t0:6.1f} s] evaluated on {name}: {_fmt(s)} -> {_fmt(t)} J/m", file=sys.stderr,
-                  flush=True)  # fmt: skip
+            print(
+                f"[{time.time() - t0:6.1f} s] evaluated on {name}: {_fmt(s)} -> {_fmt(t)} J/m",
+                file=sys.stderr,
+                flush=True,
+            )
         print(table(report))
     if args.json:
         from wqwarp.utils.provenance import write_result_json

@@ -36,8 +36,11 @@ def main(argv=None) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = [("Train/mean_reward", "mean episode reward"), ("Metrics/vx_error", "|v_x error| [m/s]"),
-              ("Metrics/p_cost", "mean p_cost [W]")]  # fmt: skip
+    panels = [
+        ("Train/mean_reward", "mean episode reward"),
+        ("Metrics/vx_error", "|v_x error| [m/s]"),
+        ("Metrics/p_cost", "mean p_cost [W]"),
+    ]
     fig, axes = plt.subplots(len(panels), 1, figsize=(7, 8), sharex=True)
     for run, label in zip(args.runs, labels, strict=True):
         s = load_scalars(run)

@@ -64,18 +64,26 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--preset", default=None, help="preset of the checkpoint (default: from its configuration)")
     ap.add_argument("--robots", type=int, default=3, help="robots, one panel each, tiled left to right (default 3)")
     ap.add_argument("--command", default="0.6,0,0", help="command vx,vy,wz held by all robots (default 0.6,0,0)")
-    ap.add_argument("--segments", default=None,
-                    help="command sequence 'vx,vy,wz:seconds;...' instead of --command (its length replaces "
-                         "--seconds)")  # fmt: skip
+    ap.add_argument(
+        "--segments",
+        default=None,
+        help="command sequence 'vx,vy,wz:seconds;...' instead of --command (its length replaces --seconds)",
+    )
     ap.add_argument("--seconds", type=float, default=6.0, help="length with --command [s] (default 6)")
     ap.add_argument("--fps", type=int, default=25, help="frames per second, a divisor of 50 (default 25)")
     ap.add_argument("--width", type=int, default=320, help="panel width [px] (default 320)")
     ap.add_argument("--height", type=int, default=240, help="panel height [px] (default 240)")
     ap.add_argument("--distance", type=float, default=2.0, help="camera distance from the trunk [m] (default 2)")
-    ap.add_argument("--elevation", type=float, default=-20.0, help="camera elevation [deg], negative looks down "
-                    "(default -20)")  # fmt: skip
-    ap.add_argument("--azimuth", type=float, default=-120.0, help="camera azimuth [deg] from the robot's heading at "
-                    "its episode start (0 behind, -90 its left side; default -120)")  # fmt: skip
+    ap.add_argument(
+        "--elevation", type=float, default=-20.0, help="camera elevation [deg], negative looks down (default -20)"
+    )
+    ap.add_argument(
+        "--azimuth",
+        type=float,
+        default=-120.0,
+        help="camera azimuth [deg] from the robot's heading at "
+        "its episode start (0 behind, -90 its left side; default -120)",
+    )
     ap.add_argument("--seed", type=int, default=None, help="env random seed: spawn yaws (default: the checkpoint's)")
     return ap
 
@@ -137,14 +145,18 @@ def render(args, segments, writer, progress=print) -> dict:
     steps = [int(round(s / dt)) for _, s in segments]
     num_frames = sum(steps) // stride
     robots = f"{n} robot{'s' * (n > 1)}"
-    progress(f"{runner.preset} checkpoint (iteration {runner.iteration}), {robots}, {sum(steps) * dt:g} s, "
-             f"{num_frames} frames of {n * args.width}x{args.height} at {args.fps} fps, "
-             f"MUJOCO_GL={os.environ.get('MUJOCO_GL', '')}")  # fmt: skip
+    progress(
+        f"{runner.preset} checkpoint (iteration {runner.iteration}), {robots}, {sum(steps) * dt:g} s, "
+        f"{num_frames} frames of {n * args.width}x{args.height} at {args.fps} fps, "
+        f"MUJOCO_GL={os.environ.get('MUJOCO_GL', '')}"
+    )
     try:
         panel = video.PanelRenderer(env.sim.mj_model, args.width, args.height, args.distance, args.elevation)
     except Exception as e:  # e.g. mujoco imported by the caller before MUJOCO_GL was chosen
-        raise UsageError(f"offscreen rendering failed (MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r}): {e}; set "
-                         "MUJOCO_GL=egl or osmesa before mujoco is imported") from None  # fmt: skip
+        raise UsageError(
+            f"offscreen rendering failed (MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r}): {e}; set "
+            "MUJOCO_GL=egl or osmesa before mujoco is imported"
+        ) from None
     text_font = video.font(max(8, round(args.height / 20)))
     window = collections.deque(maxlen=max(1, int(round(AVERAGE_SECONDS / dt))))
     falls = np.zeros(n, dtype=np.int64)
@@ -161,8 +173,11 @@ def render(args, segments, writer, progress=print) -> dict:
                     obs, _, dones, _ = env.step(runner.policy(obs))
                     k += 1
                     b = env.base_state()
-                    window.append(torch.stack([b["lin_vel"][:, 0], b["lin_vel"][:, 1], b["ang_vel"][:, 2],
-                                               env.tv["p_cost"]], 1).cpu().numpy())  # fmt: skip
+                    window.append(
+                        torch.stack([b["lin_vel"][:, 0], b["lin_vel"][:, 1], b["ang_vel"][:, 2], env.tv["p_cost"]], 1)
+                        .cpu()
+                        .numpy()
+                    )
                     done = dones.bool().cpu().numpy()
                     qpos = env.sim.mujoco_qpos()
                     if done.any():
@@ -176,10 +191,12 @@ def render(args, segments, writer, progress=print) -> dict:
                     for i in range(n):
                         img = panel.render(qpos[i], math.degrees(yaw0[i]) + args.azimuth)
                         v, p = mean[i], mean[i, 3]
-                        lines = [f"robot {i}  t {k * dt:5.2f} s" + (f"  falls {falls[i]}" if falls[i] else ""),
-                                 f"cmd  vx {cmd[0]:+.2f} vy {cmd[1]:+.2f} wz {cmd[2]:+.2f}",
-                                 f"meas vx {v[0]:+.2f} vy {v[1]:+.2f} wz {v[2]:+.2f}",
-                                 f"{env.gait_names[int(gait[i])]}  {p:.0f} W"]  # fmt: skip
+                        lines = [
+                            f"robot {i}  t {k * dt:5.2f} s" + (f"  falls {falls[i]}" if falls[i] else ""),
+                            f"cmd  vx {cmd[0]:+.2f} vy {cmd[1]:+.2f} wz {cmd[2]:+.2f}",
+                            f"meas vx {v[0]:+.2f} vy {v[1]:+.2f} wz {v[2]:+.2f}",
+                            f"{env.gait_names[int(gait[i])]}  {p:.0f} W",
+                        ]
                         tiles.append(video.draw_overlay(img, lines, text_font))
                     writer.append(np.concatenate(tiles, axis=1))
                     frames += 1
@@ -189,8 +206,14 @@ def render(args, segments, writer, progress=print) -> dict:
                         progress(f"  {pct:3d}%  {frames}/{num_frames} frames  ({time.time() - t0:.1f} s)")
     finally:
         panel.close()
-    return {"frames": frames, "width": n * args.width, "height": args.height, "seconds": k * dt,
-            "falls": int(falls.sum()), "wall": time.time() - t0}  # fmt: skip
+    return {
+        "frames": frames,
+        "width": n * args.width,
+        "height": args.height,
+        "seconds": k * dt,
+        "falls": int(falls.sum()),
+        "wall": time.time() - t0,
+    }
 
 
 def write_atomically(path: str, fps: int, produce) -> None:
@@ -219,9 +242,11 @@ def main(argv=None) -> int:
         write_atomically(args.out, args.fps, produce)
     except video.RenderSetupError as e:  # no OpenGL backend or no .mp4 writer: a missing prerequisite, exit 2
         raise UsageError(str(e)) from None
-    print(f"wrote {args.out}: {summary['frames']} frames of {summary['width']}x{summary['height']}, "
-          f"{summary['seconds']:g} s at {args.fps} fps, falls {summary['falls']}, MUJOCO_GL={gl}, "
-          f"{summary['wall']:.1f} s")  # fmt: skip
+    print(
+        f"wrote {args.out}: {summary['frames']} frames of {summary['width']}x{summary['height']}, "
+        f"{summary['seconds']:g} s at {args.fps} fps, falls {summary['falls']}, MUJOCO_GL={gl}, "
+        f"{summary['wall']:.1f} s"
+    )
     return 0
 
 

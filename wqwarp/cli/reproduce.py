@@ -23,35 +23,62 @@ DEFAULT_TASKS = tuple(name for name, task in TASKS.items() if name == task.metho
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """The command line, with the budget's device, work and output folders filled in."""
     doc = R.__doc__
-    p = ArgumentParser(prog="reproduce.py", description=doc.split("\n\n")[0], epilog=doc.split("\n\n", 1)[1],
-                       formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
-    p.add_argument("--budget", choices=sorted(R.BUDGETS), default="smoke",
-                   help="smoke (minutes, plumbing only), cpu (~4 h on 2 cores: 128 robots x 4883 iterations = 15 M "
-                   "samples per task, the tasks' own budget; split it over sessions with --tasks and --import-from), "
-                   "gpu (the paper's 4096 x 4000; use --device cuda:0). Default smoke")  # fmt: skip
+    p = ArgumentParser(
+        prog="reproduce.py",
+        description=doc.split("\n\n")[0],
+        epilog=doc.split("\n\n", 1)[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--budget",
+        choices=sorted(R.BUDGETS),
+        default="smoke",
+        help="smoke (minutes, plumbing only), cpu (~4 h on 2 cores: 128 robots x 4883 iterations = 15 M "
+        "samples per task, the tasks' own budget; split it over sessions with --tasks and --import-from), "
+        "gpu (the paper's 4096 x 4000; use --device cuda:0). Default smoke",
+    )
     p.add_argument("--seeds", type=int, default=1, help="seeds 1..N per task (default 1; bars show their spread)")
-    p.add_argument("--tasks", "--presets", dest="tasks", default=",".join(DEFAULT_TASKS),
-                   help=f"comma-separated task ids (wqwarp/rl/tasks.py), one per method (default the five methods' "
-                   f"recipes: {','.join(DEFAULT_TASKS)}; the paper's methods as written: "
-                   f"{','.join(t + '-paper' for t in DEFAULT_TASKS)})")  # fmt: skip
-    p.add_argument("--stages", default=",".join(R.STAGES),
-                   help=f"comma-separated stages (default all: {','.join(R.STAGES)})")  # fmt: skip
-    p.add_argument("--out", default=None,
-                   help="folder for RESULTS.md, results.json and the figures (default: docs for the cpu and gpu "
-                   "budgets, <work>/report for smoke)")  # fmt: skip
-    p.add_argument("--work", default=None,
-                   help="folder for training runs and raw evaluation files (default runs/reproduce_<budget>: a "
-                   "finished stage is never redone)")  # fmt: skip
-    p.add_argument("--import-from", default=None, metavar="DIR",
-                   help="results folder of an earlier reproduction at this budget (e.g. docs/results/cpu, as its "
-                   "report wrote it): tasks and seeds recorded there with this budget's robots, steps and final "
-                   "iteration, trained as the same task, are taken as trained and evaluated instead of redone, so a "
-                   "reproduction longer than one session continues in the next without its checkpoints; other "
-                   "records are listed and left alone")  # fmt: skip
+    p.add_argument(
+        "--tasks",
+        "--presets",
+        dest="tasks",
+        default=",".join(DEFAULT_TASKS),
+        help=f"comma-separated task ids (wqwarp/rl/tasks.py), one per method (default the five methods' "
+        f"recipes: {','.join(DEFAULT_TASKS)}; the paper's methods as written: "
+        f"{','.join(t + '-paper' for t in DEFAULT_TASKS)})",
+    )
+    p.add_argument(
+        "--stages", default=",".join(R.STAGES), help=f"comma-separated stages (default all: {','.join(R.STAGES)})"
+    )
+    p.add_argument(
+        "--out",
+        default=None,
+        help="folder for RESULTS.md, results.json and the figures (default: docs for the cpu and gpu "
+        "budgets, <work>/report for smoke)",
+    )
+    p.add_argument(
+        "--work",
+        default=None,
+        help="folder for training runs and raw evaluation files (default runs/reproduce_<budget>: a "
+        "finished stage is never redone)",
+    )
+    p.add_argument(
+        "--import-from",
+        default=None,
+        metavar="DIR",
+        help="results folder of an earlier reproduction at this budget (e.g. docs/results/cpu, as its "
+        "report wrote it): tasks and seeds recorded there with this budget's robots, steps and final "
+        "iteration, trained as the same task, are taken as trained and evaluated instead of redone, so a "
+        "reproduction longer than one session continues in the next without its checkpoints; other "
+        "records are listed and left alone",
+    )
     p.add_argument("--device", default=None, help="cpu or cuda:N (default: the budget's, cpu except gpu)")
-    p.add_argument("--torch-threads", type=int, default=1,
-                   help="torch CPU threads of each training process (default 1, as train/ppo_newton.py; physics uses "
-                   "all cores)")  # fmt: skip
+    p.add_argument(
+        "--torch-threads",
+        type=int,
+        default=1,
+        help="torch CPU threads of each training process (default 1, as train/ppo_newton.py; physics uses all cores)",
+    )
     args = p.parse_args(argv)
     budget = R.BUDGETS[args.budget]
     args.device = args.device or budget.device
@@ -84,8 +111,10 @@ def main(argv: list[str] | None = None) -> int:
     stages = [x.strip() for x in args.stages.split(",") if x.strip()]
     bad = [x for x in tasks if x not in TASKS] + [x for x in stages if x not in R.STAGES]
     if bad or not tasks or not stages or args.seeds < 1 or args.torch_threads < 1:
-        raise UsageError(f"unknown task or stage {bad}, or --seeds / --torch-threads < 1 (tasks: {', '.join(TASKS)}; "
-                         f"stages: {', '.join(R.STAGES)})")  # fmt: skip
+        raise UsageError(
+            f"unknown task or stage {bad}, or --seeds / --torch-threads < 1 (tasks: {', '.join(TASKS)}; "
+            f"stages: {', '.join(R.STAGES)})"
+        )
     methods = [method_of(t) for t in tasks]
     if len(set(methods)) < len(methods):
         raise UsageError(f"--tasks {args.tasks}: one task per method (the page compares the methods)")
@@ -98,15 +127,20 @@ def main(argv: list[str] | None = None) -> int:
     if args.import_from:
         for line in R.import_finished(args.import_from, args.work, budget, tasks, seeds):
             print(line)
-    write_text_atomic(os.path.join(args.work, "budget.json"),
-                      json.dumps({"budget": args.budget, **asdict(budget), "device": args.device}, indent=2))
+    write_text_atomic(
+        os.path.join(args.work, "budget.json"),
+        json.dumps({"budget": args.budget, **asdict(budget), "device": args.device}, indent=2),
+    )
     t0 = time.time()
     failed = []
     for stage in [s for s in stages if s != "report"]:
         for task in tasks:
             for seed in seeds:
-                ok = R.stage_train(args, budget, task, seed) if stage == "train" else \
-                    R.stage_eval(args, budget, task, seed, stage)  # fmt: skip
+                ok = (
+                    R.stage_train(args, budget, task, seed)
+                    if stage == "train"
+                    else R.stage_eval(args, budget, task, seed, stage)
+                )
                 if not ok:
                     failed.append(f"{stage} {task} seed {seed}")
     if "report" in stages:

@@ -43,23 +43,29 @@ def analyse(run: str, metric: str, thresholds: list[float], window: int, bench: 
         raise ValueError(f"{run}: no config.json (not a train/ppo_newton.py run directory)")
     with open(cfg_path, encoding="utf-8") as f:
         cfg = json.load(f)
-    robots = int(cfg["args"]["num_envs"]) * int(cfg.get("world_size", 1))
-    steps_per_it = robots * int(cfg["args"]["num_steps_per_env"])
+    robots = int(cfg["env"]["sim"]["num_envs"]) * int(cfg.get("world_size", 1))  # the resolved config (any version)
+    steps_per_it = robots * int(cfg["train"]["num_steps_per_env"])
     sc = load_scalars(run)
     if metric not in sc:
         raise ValueError(f"{run}: no scalar {metric!r} (have {', '.join(sorted(sc)[:8])}, ...)")
     its, vals, _ = sc[metric]
     times = [a + b for a, b in zip(sc["Perf/collection_time"][1], sc["Perf/learning_time"][1], strict=False)]
-    out = {"run": run, "robots": robots, "iterations": len(vals), "final": sum(vals[-window:]) / min(window, len(vals)),
-           "seconds_per_iteration": sum(times) / max(len(times), 1), "thresholds": {}}  # fmt: skip
+    out = {
+        "run": run,
+        "robots": robots,
+        "iterations": len(vals),
+        "final": sum(vals[-window:]) / min(window, len(vals)),
+        "seconds_per_iteration": sum(times) / max(len(times), 1),
+        "thresholds": {},
+    }
     for th in thresholds:
         i = first_below(vals, th, window)
         if i is None:
             out["thresholds"][str(th)] = None
             continue
         row = {"iteration": its[i] + 1, "robot_steps": (i + 1) * steps_per_it, "wall_s": round(sum(times[: i + 1]), 1)}
-        if cfg["args"]["num_envs"] in bench:
-            row["bench_s"] = round((i + 1) * bench[cfg["args"]["num_envs"]], 1)
+        if cfg["env"]["sim"]["num_envs"] in bench:
+            row["bench_s"] = round((i + 1) * bench[cfg["env"]["sim"]["num_envs"]], 1)
         out["thresholds"][str(th)] = row
     return out
 
@@ -92,21 +98,30 @@ def main(argv=None) -> int:
         results = [analyse(r, args.metric, thresholds, args.window, bench) for r in args.runs]
     except ValueError as e:
         raise UsageError(str(e)) from None
-    print(f"{'run':<28} {'robots':>6} {'s/it':>6} {'final':>6}  " + "  ".join(f"< {t:g}: it / Msteps / wall s"
-                                                                          for t in thresholds))  # fmt: skip
+    print(
+        f"{'run':<28} {'robots':>6} {'s/it':>6} {'final':>6}  "
+        + "  ".join(f"< {t:g}: it / Msteps / wall s" for t in thresholds)
+    )
     for r in results:
         cells = []
         for t in thresholds:
             row = r["thresholds"][str(t)]
-            cells.append("never" if row is None else f"{row['iteration']} / {row['robot_steps'] / 1e6:.2f} / "
-                         f"{row['wall_s']:.0f}" + (f" (bench {row['bench_s']:.0f})" if "bench_s" in row else ""))
-        print(f"{os.path.basename(r['run'].rstrip('/')):<28} {r['robots']:>6} {r['seconds_per_iteration']:>6.2f} "
-              f"{r['final']:>6.3f}  " + "  ".join(cells))  # fmt: skip
+            cells.append(
+                "never"
+                if row is None
+                else f"{row['iteration']} / {row['robot_steps'] / 1e6:.2f} / "
+                f"{row['wall_s']:.0f}" + (f" (bench {row['bench_s']:.0f})" if "bench_s" in row else "")
+            )
+        print(
+            f"{os.path.basename(r['run'].rstrip('/')):<28} {r['robots']:>6} {r['seconds_per_iteration']:>6.2f} "
+            f"{r['final']:>6.3f}  " + "  ".join(cells)
+        )
     if args.json:
         from wqwarp.utils import provenance
 
-        provenance.write_result_json(args.json, {"metric": args.metric, "window": args.window,
-                                                 "thresholds": thresholds, "results": results})  # fmt: skip
+        provenance.write_result_json(
+            args.json, {"metric": args.metric, "window": args.window, "thresholds": thresholds, "results": results}
+        )
     return 0
 
 

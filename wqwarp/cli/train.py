@@ -58,8 +58,9 @@ def resolve_log_dir(args) -> str:
     check_writable_dir(d, "--log-dir")
     if os.path.isdir(d) and any(f.startswith("model_") for f in os.listdir(d)):
         if not (run.resume and os.path.abspath(os.path.dirname(run.resume)) == os.path.abspath(d)):
-            raise UsageError(f"log dir {d!r} already holds checkpoints; choose another --log-dir or --resume from one "
-                             "of them")  # fmt: skip
+            raise UsageError(
+                f"log dir {d!r} already holds checkpoints; choose another --log-dir or --resume from one of them"
+            )
     return d
 
 
@@ -81,8 +82,10 @@ def main(argv=None) -> int:
     if run.resume is not None:
         it = checkpoint_iteration(run.resume)
         if it is not None and it + 1 >= tcfg.max_iterations:
-            raise UsageError(f"--resume {run.resume}: the run already reached its {tcfg.max_iterations} iterations; "
-                             "pass --max-iterations N (the new total) to train on")  # fmt: skip
+            raise UsageError(
+                f"--resume {run.resume}: the run already reached its {tcfg.max_iterations} iterations; "
+                "pass --max-iterations N (the new total) to train on"
+            )
     world = int(os.getenv("WORLD_SIZE", "1"))
     rank = int(os.getenv("RANK", "0"))
     device = cfg.sim.device
@@ -118,16 +121,21 @@ def main(argv=None) -> int:
     log_dir = resolve_log_dir(args)
     say = print if rank == 0 else (lambda *a, **k: None)
     ranks = f" x {world} processes" if world > 1 else ""
-    say(f"wqwarp: task {args.task}, {cfg.sim.num_envs} robots{ranks} on {device} (threads: torch "
+    say(
+        f"wqwarp: task {args.task}, {cfg.sim.num_envs} robots{ranks} on {device} (threads: torch "
         f"{threads['torch']}, update {threads['update']}, physics {threads['physics']}), log dir {log_dir}",
-        flush=True)  # fmt: skip
+        flush=True,
+    )
     t_setup = time.time()
     try:
         env = WheeledGo1Env(cfg)
     except ValueError as e:  # a configuration the simulator refuses, a missing or broken robot asset
         raise UsageError(str(e)) from None
-    say(f"environment ready in {time.time() - t_setup:.1f} s ({env.num_obs} actor observations, "
-          f"{env.num_actions} actions)", flush=True)  # fmt: skip
+    say(
+        f"environment ready in {time.time() - t_setup:.1f} s ({env.num_obs} actor observations, "
+        f"{env.num_actions} actions)",
+        flush=True,
+    )
     if rank == 0:  # the resolved configuration (preset + command line) and the command line that produced it
         os.makedirs(log_dir, exist_ok=True)
         record = {**resolved_config(args), "threads": threads, "world_size": world, "env": to_dict(cfg)}
@@ -146,8 +154,11 @@ def main(argv=None) -> int:
             raise UsageError(str(e)) from None
         runner.current_learning_iteration += 1  # continue after the checkpoint; never rewrite it
         changed = ", ".join(f"{k} {v!r}" for k, v in args.overrides.items()) or "none"
-        say(f"resumed from {run.resume} at iteration {runner.current_learning_iteration} with its configuration; "
-            f"options over it: {changed}", flush=True)  # fmt: skip
+        say(
+            f"resumed from {run.resume} at iteration {runner.current_learning_iteration} with its configuration; "
+            f"options over it: {changed}",
+            flush=True,
+        )
         for note in args.migrated:
             say(f"  (older checkpoint) {note}", flush=True)
     start = runner.current_learning_iteration
@@ -168,8 +179,11 @@ def main(argv=None) -> int:
     wall = time.time() - t0
     sync = runner.ranks_in_sync()  # under torchrun: every rank must end with the same networks
     if sync and rank == 0:
-        print("\nranks in sync (largest parameter difference to rank 0): "
-              + ", ".join(f"{k} {v:.1e}" for k, v in sync.items()), flush=True)  # fmt: skip
+        print(
+            "\nranks in sync (largest parameter difference to rank 0): "
+            + ", ".join(f"{k} {v:.1e}" for k, v in sync.items()),
+            flush=True,
+        )
     if any(v > 1e-5 for v in sync.values()):
         print(f"error: the {world} ranks ended with different networks: {sync}", file=sys.stderr)
         return 1
@@ -183,10 +197,14 @@ def main(argv=None) -> int:
         row = runner.logger.metrics  # the last line of metrics.jsonl
         m = lambda k: float("nan") if row.get(k) is None else row[k]  # noqa: E731
         print("\n" + "=" * 72)
-        print(f" task {args.task} | {cfg.sim.num_envs} robots on {device} | {total - start} iterations in "
-              f"{datetime.timedelta(seconds=int(wall))}")  # fmt: skip
-        print(f" mean episode reward {m('mean_reward'):.2f} | |v_x error| {m('Metrics/vx_error'):.3f} m/s | |v_y "
-              f"error| {m('Metrics/vy_error'):.3f} m/s | |w_z error| {m('Metrics/wz_error'):.3f} rad/s")  # fmt: skip
+        print(
+            f" task {args.task} | {cfg.sim.num_envs} robots on {device} | {total - start} iterations in "
+            f"{datetime.timedelta(seconds=int(wall))}"
+        )
+        print(
+            f" mean episode reward {m('mean_reward'):.2f} | |v_x error| {m('Metrics/vx_error'):.3f} m/s | |v_y "
+            f"error| {m('Metrics/vy_error'):.3f} m/s | |w_z error| {m('Metrics/wz_error'):.3f} rad/s"
+        )
         print(f" mean p_cost {m('Metrics/p_cost'):.1f} W | {m('steps_per_s'):.0f} env steps/s")
         print(f" checkpoint  {last}")
         for k, v in exported.items():

@@ -47,8 +47,8 @@ ALIASES: dict[str, str] = {
 REMOVED = {
     "--preset": "the method is the task id now: `ppo_newton.py no_predictor` (its recipe) or `no_predictor-paper`",
     "--profile": "the task id carries the recipe: `ppo_newton.py ours` (the former select levers) or `ours-paper` "
-                 "(the former paper profile); docs/training.md lists what the other profiles set",
-}  # fmt: skip
+    "(the former paper profile); docs/training.md lists what the other profiles set",
+}
 """Flags of earlier versions, refused with what replaced them."""
 
 
@@ -131,19 +131,21 @@ def config_differences(base: dict[str, object], now: dict[str, object]) -> dict[
 
 def _description(doc: str) -> str:
     short = "\n".join(f"  {flag:<26} = {option_name(path)}" for flag, path in ALIASES.items())
-    return (f"{doc.strip()}\n\nTasks (the first argument; default {DEFAULT_TASK}; --help after it shows its "
-            f"defaults):\n{task_help()}\n\nShort flags:\n{short}\n  --temperature START END    = "
-            "--env.predictor.temperature-start START --env.predictor.temperature-end END\n  --reward TERM=WEIGHT       "
-            f"= --env.reward.TERM WEIGHT (terms: {', '.join(REWARD_TERMS)})\n  {TUNED_FLAG} PATH    a gait tuned "
-            "on the differentiable path (tools/optimize_gait.py JSON): its frequency, DF_swing and stance x replace "
-            "those of the library gait it was tuned from (repeatable, applied after every other option)")
+    return (
+        f"{doc.strip()}\n\nTasks (the first argument; default {DEFAULT_TASK}; --help after it shows its "
+        f"defaults):\n{task_help()}\n\nShort flags:\n{short}\n  --temperature START END    = "
+        "--env.predictor.temperature-start START --env.predictor.temperature-end END\n  --reward TERM=WEIGHT       "
+        f"= --env.reward.TERM WEIGHT (terms: {', '.join(REWARD_TERMS)})\n  {TUNED_FLAG} PATH    a gait tuned "
+        "on the differentiable path (tools/optimize_gait.py JSON): its frequency, DF_swing and stance x replace "
+        "those of the library gait it was tuned from (repeatable, applied after every other option)"
+    )
 
 
 def _take_value(argv: list[str], i: int, flag: str, count: int = 1) -> tuple[list[str], int]:
     token = argv[i]
     if "=" in token and count == 1:
         return [token.partition("=")[2]], i + 1
-    values = argv[i + 1:i + 1 + count]
+    values = argv[i + 1 : i + 1 + count]
     if len(values) < count or any(v.startswith("--") for v in values):
         raise UsageError(f"{flag} expects {count} value{'s' if count > 1 else ''}")
     return values, i + 1 + count
@@ -181,7 +183,7 @@ def preprocess(argv: Sequence[str]) -> tuple[str | None, list[str], list[str]]:
             if flag == "--no-true-state":
                 head, _, leaf = full.rpartition(".")
                 full = f"{head}.no-{leaf}"
-            out.append(full + (token[len(token.partition("=")[0]):] if "=" in token else ""))
+            out.append(full + (token[len(token.partition("=")[0]) :] if "=" in token else ""))
             i += 1
         else:
             out.append(token)
@@ -261,15 +263,18 @@ def parse_train_args(doc: str, argv: Sequence[str] | None = None) -> TrainArgs:
         env, train, notes = checkpoint_config(resume)
         own = infer_task(env, train)
         if name is not None and name != own:
-            raise UsageError(f"--resume {resume} was trained as {own or 'a custom configuration'}, not as task "
-                             f"{name}; drop the task id (the checkpoint's configuration is used)")  # fmt: skip
+            raise UsageError(
+                f"--resume {resume} was trained as {own or 'a custom configuration'}, not as task "
+                f"{name}; drop the task id (the checkpoint's configuration is used)"
+            )
         name = own or name or "custom"
     else:
         name, notes = name or DEFAULT_TASK, []
         env, train = TASKS[name].make()
     base = {"env": to_dict(env), "train": to_dict(train)}
-    command = tyro_cli(TrainCommand, TrainCommand(env=env, train=train), rest, prog=f"{PROG} {name}",
-                       description=_description(doc))  # fmt: skip
+    command = tyro_cli(
+        TrainCommand, TrainCommand(env=env, train=train), rest, prog=f"{PROG} {name}", description=_description(doc)
+    )
     cfg = command.env
     for path in tuned:
         cfg.gait = tuned_gait_config(cfg.gait, path)
@@ -290,8 +295,17 @@ def parse_train_args(doc: str, argv: Sequence[str] | None = None) -> TrainArgs:
 def resolved_config(args: TrainArgs) -> dict:
     """What ``--print-config`` prints and ``config.json`` records: the task, the command line, the options that
     changed its configuration, the run's own options and the whole configuration."""
-    run = {f.name: getattr(args.command, f.name) for f in dataclasses.fields(TrainCommand)
-           if f.name not in ("env", "train")}  # fmt: skip
-    return {"task": args.task, "command": shlex.join([f"train/{PROG}", *args.argv]), "overrides": args.overrides,
-            "tuned_gaits": list(args.tuned_gaits), "args": run, "env": to_dict(args.env),
-            "train": to_dict(args.train)}  # fmt: skip
+    run = {
+        f.name: getattr(args.command, f.name)
+        for f in dataclasses.fields(TrainCommand)
+        if f.name not in ("env", "train")
+    }
+    return {
+        "task": args.task,
+        "command": shlex.join([f"train/{PROG}", *args.argv]),
+        "overrides": args.overrides,
+        "tuned_gaits": list(args.tuned_gaits),
+        "args": run,
+        "env": to_dict(args.env),
+        "train": to_dict(args.train),
+    }

@@ -58,9 +58,18 @@ class OpenLoopDriver:
         gait_kwargs: passed to :class:`NominalGait` (``library``, ``body_height``, ``swing_height``, ...).
     """
 
-    def __init__(self, sim: Simulator | None, gait: str = "trotting", command: Sequence[float] = (0.0, 0.0, 0.0),
-                 *, contact: ContactSource = "sim", num_envs: int = 1, device: str = "cpu", dt: float = 0.02,
-                 **gait_kwargs):  # fmt: skip
+    def __init__(
+        self,
+        sim: Simulator | None,
+        gait: str = "trotting",
+        command: Sequence[float] = (0.0, 0.0, 0.0),
+        *,
+        contact: ContactSource = "sim",
+        num_envs: int = 1,
+        device: str = "cpu",
+        dt: float = 0.02,
+        **gait_kwargs,
+    ):
         if contact not in CONTACT_SOURCES:
             raise ValueError(f"unknown contact source {contact!r}; choose one of {', '.join(CONTACT_SOURCES)}")
         self.sim = sim
@@ -77,8 +86,9 @@ class OpenLoopDriver:
         self.set_command(command)
         n = self.num_envs
         self._ground = wp.ones((n, 4), dtype=wp.int32, device=self.device)
-        self._default_legs = wp.array(np.tile(np.asarray(C.DEFAULT_JOINT_POS[:12], np.float32), (n, 1)),
-                                      dtype=wp.float32, device=self.device)  # fmt: skip
+        self._default_legs = wp.array(
+            np.tile(np.asarray(C.DEFAULT_JOINT_POS[:12], np.float32), (n, 1)), dtype=wp.float32, device=self.device
+        )
         self.steps_taken = 0
         """Policy steps run so far."""
 
@@ -104,8 +114,7 @@ class OpenLoopDriver:
         """Whole policy steps in ``seconds`` [s] (rounded), as :meth:`run` counts them."""
         return round(seconds / self.dt)
 
-    def run(self, seconds: float, warmup_s: float = 0.0,
-            on_step: Callable[[int, bool], object] | None = None) -> int:  # fmt: skip
+    def run(self, seconds: float, warmup_s: float = 0.0, on_step: Callable[[int, bool], object] | None = None) -> int:
         """``warmup_s`` [s] then ``seconds`` [s] of policy steps (each rounded to whole steps); after every step
         ``on_step(k, in_window)`` with the step index k (0-based, warm-up included) and whether it is in the window
         after the warm-up. Returns the number of window steps."""

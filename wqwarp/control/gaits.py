@@ -100,9 +100,13 @@ def load_tuned_gait(path: str, library: tuple[Gait, ...] = TABLE_I, name: str | 
     tuning = data.get("tuning", data)
     params = dict(zip(tuning["param_names"], tuning["best"]["params"], strict=True))
     base = library[gait_index(tuning["config"]["gait"], library)]
-    return dataclasses.replace(base, name=name or base.name, frequency=float(params.get("frequency", base.frequency)),
-                               df_swing=float(params.get("df_swing", base.df_swing)),
-                               stance_x=float(params.get("stance_x", base.stance_x)))  # fmt: skip
+    return dataclasses.replace(
+        base,
+        name=name or base.name,
+        frequency=float(params.get("frequency", base.frequency)),
+        df_swing=float(params.get("df_swing", base.df_swing)),
+        stance_x=float(params.get("stance_x", base.stance_x)),
+    )
 
 
 MIRROR_LEGS = (1, 0, 3, 2)

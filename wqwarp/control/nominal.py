@@ -88,7 +88,18 @@ class NominalGait:
         """Advance one policy step of length ``dt`` [s] from the measured leg joints (W, 12) [rad] and wheel
         contact flags (W, 4) int32."""
         gait_kernels.step_nominal_gait(
-            self.state, self.arrays, self.gait_id, self.command, self.phase_residual, leg_joint_pos, wheel_contact,
-            dt, self.body_height, self.swing_height, self.swing_x_amplitude, self.phase_mode, self.lateral_gain,
+            self.state,
+            self.arrays,
+            self.gait_id,
+            self.command,
+            self.phase_residual,
+            leg_joint_pos,
+            wheel_contact,
+            dt,
+            self.body_height,
+            self.swing_height,
+            self.swing_x_amplitude,
+            self.phase_mode,
+            self.lateral_gain,
             self.lateral_limit,
-        )  # fmt: skip
+        )

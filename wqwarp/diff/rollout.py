@@ -104,9 +104,19 @@ class DiffRollout:
     buffer each: ~5 MB per substep for 8 robots, measured); the tape is for short windows of few robots.
     """
 
-    def __init__(self, cfg, gait: str, command=(0.3, 0.0, 0.0), horizon: int = 25, warmup: int = 50,
-                 eps_tau: float = 0.05, eps_qd: float = 0.05, anchored_contacts: bool = True, *,
-                 _swap_matrices: bool = True):  # fmt: skip
+    def __init__(
+        self,
+        cfg,
+        gait: str,
+        command=(0.3, 0.0, 0.0),
+        horizon: int = 25,
+        warmup: int = 50,
+        eps_tau: float = 0.05,
+        eps_qd: float = 0.05,
+        anchored_contacts: bool = True,
+        *,
+        _swap_matrices: bool = True,
+    ):
         cfg.validate()
         if horizon < 1 or warmup < 0:
             raise ValueError(f"need horizon >= 1 and warmup >= 0 policy steps, got {horizon} and {warmup}")
@@ -145,8 +155,14 @@ class DiffRollout:
             self.wheel_nominal = [z(n, 4) for _ in range(horizon)]
             self.leg_target = [z(n, 12) for _ in range(horizon)]
             self.wheel_target = [z(n, 4) for _ in range(horizon)]
-            self.matrices = [{k: wp.zeros_like(getattr(self.solver, k), requires_grad=True) for k in SOLVER_MATRICES
-                              if getattr(self.solver, k, None) is not None} for _ in range(substeps)]  # fmt: skip
+            self.matrices = [
+                {
+                    k: wp.zeros_like(getattr(self.solver, k), requires_grad=True)
+                    for k in SOLVER_MATRICES
+                    if getattr(self.solver, k, None) is not None
+                }
+                for _ in range(substeps)
+            ]
             self.params = z(n, len(PARAM_NAMES))
             self.leg_offset = z(n, 12)
             self.wheel_offset = z(n, 4)
@@ -183,21 +199,43 @@ class DiffRollout:
         (separate arrays on the tape; the same arrays for the untaped loops, which update it in place)."""
         cfg, lay = self.cfg, self.layout
         actuation.launch_actuation(
-            self._rows(state, "joint_q", lay.coords_per_world), self._rows(state, "joint_qd", lay.dofs_per_world),
-            leg_t, wheel_t, self.torque_limit, self.strength, i_in, e_in, torque,
-            joint_f.reshape((self.num_envs, lay.dofs_per_world)), self.coord_index, self.dof_index,
-            leg_kp=cfg.leg_kp, leg_kd=cfg.leg_kd, wheel_kp=cfg.wheel_kp, wheel_ki=cfg.wheel_ki, wheel_kd=cfg.wheel_kd,
-            wheel_i_limit=cfg.wheel_i_limit, dt=cfg.dt, wheel_integral_out=i_out, wheel_prev_error_out=e_out,
-        )  # fmt: skip
+            self._rows(state, "joint_q", lay.coords_per_world),
+            self._rows(state, "joint_qd", lay.dofs_per_world),
+            leg_t,
+            wheel_t,
+            self.torque_limit,
+            self.strength,
+            i_in,
+            e_in,
+            torque,
+            joint_f.reshape((self.num_envs, lay.dofs_per_world)),
+            self.coord_index,
+            self.dof_index,
+            leg_kp=cfg.leg_kp,
+            leg_kd=cfg.leg_kd,
+            wheel_kp=cfg.wheel_kp,
+            wheel_ki=cfg.wheel_ki,
+            wheel_kd=cfg.wheel_kd,
+            wheel_i_limit=cfg.wheel_i_limit,
+            dt=cfg.dt,
+            wheel_integral_out=i_out,
+            wheel_prev_error_out=e_out,
+        )
 
     def _targets(self, step: int, t: float, leg_t, wheel_t) -> None:
         n = self.num_envs
-        wp.launch(gait_kernels.open_loop_gait_targets, dim=(n, 4),
-                  inputs=[self.params, self.phase_offsets, self.command, float(t), float(C.MAX_HORIZONTAL_OFFSET)],
-                  outputs=[self.leg_nominal[step], self.wheel_nominal[step]])  # fmt: skip
-        wp.launch(actions.offset_targets, dim=n,
-                  inputs=[self.leg_nominal[step], self.wheel_nominal[step], self.leg_offset, self.wheel_offset],
-                  outputs=[leg_t, wheel_t])  # fmt: skip
+        wp.launch(
+            gait_kernels.open_loop_gait_targets,
+            dim=(n, 4),
+            inputs=[self.params, self.phase_offsets, self.command, float(t), float(C.MAX_HORIZONTAL_OFFSET)],
+            outputs=[self.leg_nominal[step], self.wheel_nominal[step]],
+        )
+        wp.launch(
+            actions.offset_targets,
+            dim=n,
+            inputs=[self.leg_nominal[step], self.wheel_nominal[step], self.leg_offset, self.wheel_offset],
+            outputs=[leg_t, wheel_t],
+        )
 
     def _untaped(self, first: int, steps: int, measure: bool = False, reset: bool = False) -> np.ndarray:
         """Run policy steps ``first`` .. ``first + steps`` untaped on the two scratch states (from the default pose if
@@ -221,21 +259,46 @@ class DiffRollout:
         for p in range(first, first + steps):
             self._targets(0, p * self.policy_dt, self.leg_target[0], self.wheel_target[0])
             for _ in range(cfg.decimation):
-                self._actuate(a, self.leg_target[0], self.wheel_target[0], self.integral[0], self.prev_error[0],
-                              self.integral[0], self.prev_error[0], self.torque[0], self._warm_f)  # fmt: skip
+                self._actuate(
+                    a,
+                    self.leg_target[0],
+                    self.wheel_target[0],
+                    self.integral[0],
+                    self.prev_error[0],
+                    self.integral[0],
+                    self.prev_error[0],
+                    self.torque[0],
+                    self._warm_f,
+                )
                 if measure:
-                    wp.launch(power.accumulate_p_cost_taped, dim=n,
-                              inputs=[self.torque[0], self._rows(a, "joint_qd", lay.dofs_per_world), self.dof_index,
-                                      weight, self.eps_tau, self.eps_qd],
-                              outputs=[self.p_cost_legs, self.p_cost_wheels, self.p_cost_smooth])  # fmt: skip
+                    wp.launch(
+                        power.accumulate_p_cost_taped,
+                        dim=n,
+                        inputs=[
+                            self.torque[0],
+                            self._rows(a, "joint_qd", lay.dofs_per_world),
+                            self.dof_index,
+                            weight,
+                            self.eps_tau,
+                            self.eps_qd,
+                        ],
+                        outputs=[self.p_cost_legs, self.p_cost_wheels, self.p_cost_smooth],
+                    )
                 self.pipeline.collide(a, contacts)
                 a.clear_forces()
                 self.solver.step(a, b, self.control, contacts, cfg.dt)
                 if measure:
-                    wp.launch(accumulate_base_motion, dim=n,
-                              inputs=[self._rows(b, "body_q", lay.bodies_per_world),
-                                      self._rows(b, "body_qd", lay.bodies_per_world), int(lay.trunk_body), weight],
-                              outputs=[self.base_velocity, self.base_height])  # fmt: skip
+                    wp.launch(
+                        accumulate_base_motion,
+                        dim=n,
+                        inputs=[
+                            self._rows(b, "body_q", lay.bodies_per_world),
+                            self._rows(b, "body_qd", lay.bodies_per_world),
+                            int(lay.trunk_body),
+                            weight,
+                        ],
+                        outputs=[self.base_velocity, self.base_height],
+                    )
                 a, b = b, a
             low = np.minimum(low, a.joint_q.numpy().reshape(n, -1)[:, 2])
         self._scratch = [a, b]
@@ -288,12 +351,30 @@ class DiffRollout:
 
     def _anchored_contact_forces(self, state, c, anchored) -> None:
         cfg, m = self.cfg, self.model
-        wp.launch(anchored_penalty_contacts, dim=c.rigid_contact_max,
-                  inputs=[c.rigid_contact_count, c.rigid_contact_shape0, c.rigid_contact_shape1, anchored[0],
-                          anchored[1], c.rigid_contact_normal, c.rigid_contact_margin0, c.rigid_contact_margin1,
-                          state.body_q, state.body_qd, m.body_com, m.shape_body, self.shape_anchor,
-                          float(cfg.contact_ke), float(cfg.contact_kd), float(cfg.contact_kf), float(cfg.contact_mu)],
-                  outputs=[state.body_f])  # fmt: skip
+        wp.launch(
+            anchored_penalty_contacts,
+            dim=c.rigid_contact_max,
+            inputs=[
+                c.rigid_contact_count,
+                c.rigid_contact_shape0,
+                c.rigid_contact_shape1,
+                anchored[0],
+                anchored[1],
+                c.rigid_contact_normal,
+                c.rigid_contact_margin0,
+                c.rigid_contact_margin1,
+                state.body_q,
+                state.body_qd,
+                m.body_com,
+                m.shape_body,
+                self.shape_anchor,
+                float(cfg.contact_ke),
+                float(cfg.contact_kd),
+                float(cfg.contact_kf),
+                float(cfg.contact_mu),
+            ],
+            outputs=[state.body_f],
+        )
 
     @property
     def policy_dt(self) -> float:
@@ -332,32 +413,66 @@ class DiffRollout:
                     self.pipeline.collide(s, c)  # untaped: contact geometry fixed in the substep
                     s.clear_forces()
                     if self.anchored_contacts:
-                        wp.launch(anchor_contact_points, dim=c.rigid_contact_max,
-                                  inputs=[c.rigid_contact_count, c.rigid_contact_shape0, c.rigid_contact_shape1,
-                                          c.rigid_contact_point0, c.rigid_contact_point1, s.body_q,
-                                          self.model.shape_body, self.shape_anchor],
-                                  outputs=list(self.anchored[i]))  # fmt: skip
+                        wp.launch(
+                            anchor_contact_points,
+                            dim=c.rigid_contact_max,
+                            inputs=[
+                                c.rigid_contact_count,
+                                c.rigid_contact_shape0,
+                                c.rigid_contact_shape1,
+                                c.rigid_contact_point0,
+                                c.rigid_contact_point1,
+                                s.body_q,
+                                self.model.shape_body,
+                                self.shape_anchor,
+                            ],
+                            outputs=list(self.anchored[i]),
+                        )
                     for name, arr in self.matrices[i].items() if self._swap else ():
                         setattr(self.solver, name, arr)
                     self.control.joint_f = self.joint_f[i]
 
                     def substep(i=i, p=p, s=s, s1=s1):
-                        self._actuate(s, self.leg_target[p], self.wheel_target[p], self.integral[i],
-                                      self.prev_error[i], self.integral[i + 1], self.prev_error[i + 1], self.torque[i],
-                                      self.joint_f[i])  # fmt: skip
-                        wp.launch(power.accumulate_p_cost_taped, dim=n,
-                                  inputs=[self.torque[i], self._rows(s, "joint_qd", lay.dofs_per_world),
-                                          self.dof_index, weight, self.eps_tau, self.eps_qd],
-                                  outputs=[self.p_cost_legs, self.p_cost_wheels, self.p_cost_smooth])  # fmt: skip
+                        self._actuate(
+                            s,
+                            self.leg_target[p],
+                            self.wheel_target[p],
+                            self.integral[i],
+                            self.prev_error[i],
+                            self.integral[i + 1],
+                            self.prev_error[i + 1],
+                            self.torque[i],
+                            self.joint_f[i],
+                        )
+                        wp.launch(
+                            power.accumulate_p_cost_taped,
+                            dim=n,
+                            inputs=[
+                                self.torque[i],
+                                self._rows(s, "joint_qd", lay.dofs_per_world),
+                                self.dof_index,
+                                weight,
+                                self.eps_tau,
+                                self.eps_qd,
+                            ],
+                            outputs=[self.p_cost_legs, self.p_cost_wheels, self.p_cost_smooth],
+                        )
                         contacts = self.contacts[i]
                         if self.anchored_contacts:
                             self._anchored_contact_forces(s, contacts, self.anchored[i])
                             contacts = None
                         self.solver.step(s, s1, self.control, contacts, cfg.dt)
-                        wp.launch(accumulate_base_motion, dim=n,
-                                  inputs=[self._rows(s1, "body_q", lay.bodies_per_world),
-                                          self._rows(s1, "body_qd", lay.bodies_per_world), int(lay.trunk_body), weight],
-                                  outputs=[self.base_velocity, self.base_height])  # fmt: skip
+                        wp.launch(
+                            accumulate_base_motion,
+                            dim=n,
+                            inputs=[
+                                self._rows(s1, "body_q", lay.bodies_per_world),
+                                self._rows(s1, "body_qd", lay.bodies_per_world),
+                                int(lay.trunk_body),
+                                weight,
+                            ],
+                            outputs=[self.base_velocity, self.base_height],
+                        )
 
                     taped(substep)
         finally:
@@ -378,13 +493,20 @@ class DiffRollout:
             raise RuntimeError("no recorded rollout: call run(record=True) first")
         n = self.num_envs
         seeds = {}
-        for arr, w, shape in ((self.p_cost_smooth, p_cost_weight, (n,)), (self.base_velocity, velocity_weight, (n, 3)),
-                              (self.base_height, height_weight, (n,))):  # fmt: skip
+        for arr, w, shape in (
+            (self.p_cost_smooth, p_cost_weight, (n,)),
+            (self.base_velocity, velocity_weight, (n, 3)),
+            (self.base_height, height_weight, (n,)),
+        ):
             if w is not None:
-                seeds[arr] = wp.array(np.broadcast_to(np.asarray(w, np.float32), shape).copy(), dtype=float,
-                                      device=self.device)  # fmt: skip
+                seeds[arr] = wp.array(
+                    np.broadcast_to(np.asarray(w, np.float32), shape).copy(), dtype=float, device=self.device
+                )
         self.tape.zero()
         self.tape.backward(grads=seeds)
-        out = {"params": self.params.grad.numpy().copy(), "leg_offset": self.leg_offset.grad.numpy().copy(),
-               "wheel_offset": self.wheel_offset.grad.numpy().copy()}  # fmt: skip
+        out = {
+            "params": self.params.grad.numpy().copy(),
+            "leg_offset": self.leg_offset.grad.numpy().copy(),
+            "wheel_offset": self.wheel_offset.grad.numpy().copy(),
+        }
         return out

@@ -114,8 +114,13 @@ def optimize(cfg: TuneConfig, progress=None) -> dict:
     decimation = max(1, round(0.02 / cfg.dt))
     policy_dt = cfg.dt * decimation
     sim_cfg = SimConfig(num_envs=n, dt=cfg.dt, decimation=decimation, backend="featherstone")
-    roll = DiffRollout(sim_cfg, cfg.gait, (cfg.vx, 0.0, 0.0), horizon=max(1, round(cfg.horizon_s / policy_dt)),
-                       warmup=round(cfg.warmup_s / policy_dt))  # fmt: skip
+    roll = DiffRollout(
+        sim_cfg,
+        cfg.gait,
+        (cfg.vx, 0.0, 0.0),
+        horizon=max(1, round(cfg.horizon_s / policy_dt)),
+        warmup=round(cfg.warmup_s / policy_dt),
+    )
     g = GAIT_LIBRARY[gait_index(cfg.gait)]
     shift = (np.arange(n) / n)[:, None]
     roll.phase_offsets.assign((np.asarray(g.phase_offsets, np.float32)[None, :] + shift).astype(np.float32) % 1.0)
@@ -146,14 +151,26 @@ def optimize(cfg: TuneConfig, progress=None) -> dict:
             fell = res.fell | long.fell
         else:
             long, fell = None, res.fell
-        entry = {"iteration": it, "J": j, "J_accept": j_accept, "lr": lr, "p_cost": float(res.p_cost.mean()),
-                 "p_cost_smooth":
-                 float(res.p_cost_smooth.mean()), "vx": float(res.base_velocity[:, 0].mean()),
-                 "height": float(res.base_height.mean()), "fell": int(fell.sum()), "params": theta.tolist(),
-                 "grad": grad.tolist(), "seconds": time.time() - t0}  # fmt: skip
+        entry = {
+            "iteration": it,
+            "J": j,
+            "J_accept": j_accept,
+            "lr": lr,
+            "p_cost": float(res.p_cost.mean()),
+            "p_cost_smooth": float(res.p_cost_smooth.mean()),
+            "vx": float(res.base_velocity[:, 0].mean()),
+            "height": float(res.base_height.mean()),
+            "fell": int(fell.sum()),
+            "params": theta.tolist(),
+            "grad": grad.tolist(),
+            "seconds": time.time() - t0,
+        }
         if long is not None:
-            entry.update(p_cost_long=float(long.p_cost.mean()), vx_long=float(long.base_velocity[:, 0].mean()),
-                         height_long=float(long.base_height.mean()))  # fmt: skip
+            entry.update(
+                p_cost_long=float(long.p_cost.mean()),
+                vx_long=float(long.base_velocity[:, 0].mean()),
+                height_long=float(long.base_height.mean()),
+            )
         history.append(entry)
         if progress:
             progress(entry)
@@ -177,12 +194,28 @@ def optimize(cfg: TuneConfig, progress=None) -> dict:
     wp.synchronize()
     ok = [h for h in history if h["fell"] == 0] or history
     best = min(ok, key=lambda h: h["J_accept"])
-    return {"config": asdict(cfg), "param_names": list(PARAM_NAMES), "bounds": bounds.tolist(), "z0": z0,
-            "start": history[0], "best": best, "history": history}  # fmt: skip
+    return {
+        "config": asdict(cfg),
+        "param_names": list(PARAM_NAMES),
+        "bounds": bounds.tolist(),
+        "z0": z0,
+        "start": history[0],
+        "best": best,
+        "history": history,
+    }
 
 
-def evaluate(params, gait: str, vx: float, backend: str = "mujoco_cpu", dt: float = 0.005, decimation: int = 4,
-             warmup_s: float = 1.0, seconds: float = 3.0, num_envs: int = 2) -> dict:  # fmt: skip
+def evaluate(
+    params,
+    gait: str,
+    vx: float,
+    backend: str = "mujoco_cpu",
+    dt: float = 0.005,
+    decimation: int = 4,
+    warmup_s: float = 1.0,
+    seconds: float = 3.0,
+    num_envs: int = 2,
+) -> dict:
     """Run the closed-loop nominal gait with ``params`` (h_b, h_s, f, DF_swing, stance x) at command (vx, 0, 0) on
     ``backend`` and return the window means: p_cost (and legs / wheels) [W], v_x [m/s], trunk height [m], energy per
     metre p_cost / v_x [J/m] (None below 0.02 m/s), and whether the trunk touched the ground."""
@@ -213,8 +246,9 @@ def evaluate(params, gait: str, vx: float, backend: str = "mujoco_cpu", dt: floa
     drv.run(seconds, warmup_s, on_step=record)
     acc["energy_per_m"] = acc["p_cost"] / acc["vx"] if acc["vx"] > 0.02 else None
     acc["trunk_touched"] = touched
-    acc.update(backend=sim.backend, dt=dt, decimation=decimation, warmup_s=warmup_s, seconds=seconds, num_envs=n,
-               params=p)  # fmt: skip
+    acc.update(
+        backend=sim.backend, dt=dt, decimation=decimation, warmup_s=warmup_s, seconds=seconds, num_envs=n, params=p
+    )
     return acc
 
 

@@ -116,23 +116,35 @@ def summarise_cells(cells: list, gaits: list[str], m: dict, allowed: torch.Tenso
     out = []
     for i, (plane, command) in enumerate(cells):
         cell = {k: v[i * g : (i + 1) * g] for k, v in m.items()}
-        per = {key: {gaits[k]: float(cell[key][k]) for k in range(g)} for key in ("p", "legs", "wheels", "err",
-                                                                                  "wrong_gait")}  # fmt: skip
+        per = {
+            key: {gaits[k]: float(cell[key][k]) for k in range(g)}
+            for key in ("p", "legs", "wheels", "err", "wrong_gait")
+        }
         predicted = {gaits[k]: float(cell["pred"].mean(0)[k]) for k in range(g)}  # from all the cell's robots' obs
         fell = [bool(cell["fell"][k]) for k in range(g)]
         up = [k for k in range(g) if not fell[k]]
         ok = [k for k in range(g) if tracks_command(float(cell["err"][k]), fell[k])]
-        out.append({
-            "plane": plane, "command": list(command), "measured_p_cost": per["p"],
-            "measured_p_cost_legs": per["legs"], "measured_p_cost_wheels": per["wheels"],
-            "sq_velocity_error": per["err"], "fell": dict(zip(gaits, fell, strict=True)),
-            "share_not_in_forced_gait": per["wrong_gait"], "predicted_p_cost": predicted,
-            "measured_winner": _cheapest(gaits, cell["p"], up),
-            "measured_winner_tracking": _cheapest(gaits, cell["p"], ok),
-            "predicted_winner": min(predicted, key=predicted.get),
-            "selected": _cheapest(gaits, cell["pred"].mean(0),
-                                  list(range(g)) if allowed is None else allowed[i].nonzero().flatten().tolist()),
-        })  # fmt: skip
+        out.append(
+            {
+                "plane": plane,
+                "command": list(command),
+                "measured_p_cost": per["p"],
+                "measured_p_cost_legs": per["legs"],
+                "measured_p_cost_wheels": per["wheels"],
+                "sq_velocity_error": per["err"],
+                "fell": dict(zip(gaits, fell, strict=True)),
+                "share_not_in_forced_gait": per["wrong_gait"],
+                "predicted_p_cost": predicted,
+                "measured_winner": _cheapest(gaits, cell["p"], up),
+                "measured_winner_tracking": _cheapest(gaits, cell["p"], ok),
+                "predicted_winner": min(predicted, key=predicted.get),
+                "selected": _cheapest(
+                    gaits,
+                    cell["pred"].mean(0),
+                    list(range(g)) if allowed is None else allowed[i].nonzero().flatten().tolist(),
+                ),
+            }
+        )
         if "pred_err" in cell:
             err = cell["pred_err"].mean(0)
             out[-1]["predicted_sq_velocity_error"] = {gaits[k]: float(err[k]) for k in range(g)}
@@ -169,8 +181,9 @@ def energy_map(opts: EnergyMapOptions, log: TextIO) -> dict:
     cells = grid_commands(opts.grid)
     gaits = list(checkpoint_gait_names(opts.checkpoint))  # one robot per gait of the run's library and cell
     g = len(gaits)
-    runner = make_policy_runner(opts.checkpoint, None, len(cells) * g, opts.device, seed=opts.seed,
-                                criterion=opts.criterion)  # fmt: skip
+    runner = make_policy_runner(
+        opts.checkpoint, None, len(cells) * g, opts.device, seed=opts.seed, criterion=opts.criterion
+    )
     dev = runner.env.device
     cmd = torch.tensor([c for _, c in cells for _ in range(g)], dtype=torch.float32, device=dev)  # robot = cell*g+k
 
@@ -184,27 +197,49 @@ def energy_map(opts: EnergyMapOptions, log: TextIO) -> dict:
     kinematic, feasible = sel.rule_candidates(None, cell_cmd, cell_means(m, "pred_err", len(cells)))
     out_cells = summarise_cells(cells, gaits, m, both_candidates(kinematic, feasible))
     agree = [cl["measured_winner"] == cl["predicted_winner"] for cl in out_cells if cl["measured_winner"]]
-    print(f"\r{runner.preset} checkpoint (iteration {runner.iteration}): {len(cells)} cells x {g} gaits, "
-          f"{opts.seconds:g} s; predicted winner = measured winner in {sum(agree)}/{len(agree)} cells", file=log)
+    print(
+        f"\r{runner.preset} checkpoint (iteration {runner.iteration}): {len(cells)} cells x {g} gaits, "
+        f"{opts.seconds:g} s; predicted winner = measured winner in {sum(agree)}/{len(agree)} cells",
+        file=log,
+    )
     wins = {gt: sum(cl["measured_winner"] == gt for cl in out_cells) for gt in gaits}
     print("measured winners: " + ", ".join(f"{gt} {w}" for gt, w in wins.items()), file=log)
     untracked = sum(cl["measured_winner"] != cl["measured_winner_tracking"] for cl in out_cells)
-    print(f"cells where the cheapest gait does not track its command (squared error > {TRACKING_LIMIT}): {untracked}",
-          file=log)  # fmt: skip
+    print(
+        f"cells where the cheapest gait does not track its command (squared error > {TRACKING_LIMIT}): {untracked}",
+        file=log,
+    )
     rule = rule_summary(out_cells, kinematic)
-    print(f"{runner.env.cfg.predictor.criterion} criterion: selects the cheapest gait that tracks in "
-          f"{rule['selects_cheapest_tracking']}/{rule['cells_with_a_tracking_gait']} cells, a gait that tracks in "
-          f"{rule['selects_a_tracking_gait']}/{len(out_cells)}", file=log)  # fmt: skip
+    print(
+        f"{runner.env.cfg.predictor.criterion} criterion: selects the cheapest gait that tracks in "
+        f"{rule['selects_cheapest_tracking']}/{rule['cells_with_a_tracking_gait']} cells, a gait that tracks in "
+        f"{rule['selects_a_tracking_gait']}/{len(out_cells)}",
+        file=log,
+    )
     if "tracking_head" in rule:
         head = rule["tracking_head"]
-        print(f"tracking head: its argmin among the candidates is the measured best tracker in "
-              f"{head['argmin_is_best_tracker']}/{len(out_cells)} cells; where a gait tracks, it predicts "
-              f"{head['median_predicted_where_tracking']:.3f} (median; measured <= {TRACKING_LIMIT})", file=log)
-    return {"checkpoint": opts.checkpoint, "preset": runner.preset, "iteration": runner.iteration,
-            "seed": opts.seed, "grid": opts.grid, "seconds": opts.seconds, "wall_time_s": time.time() - t0,
-            "winner_agreement": sum(agree) / max(len(agree), 1), "tracking_limit": TRACKING_LIMIT,
-            "cheapest_does_not_track": untracked, "criterion": runner.env.cfg.predictor.criterion, "rule": rule,
-            "cells": out_cells, "config": to_dict(runner.env.cfg)}  # fmt: skip
+        print(
+            f"tracking head: its argmin among the candidates is the measured best tracker in "
+            f"{head['argmin_is_best_tracker']}/{len(out_cells)} cells; where a gait tracks, it predicts "
+            f"{head['median_predicted_where_tracking']:.3f} (median; measured <= {TRACKING_LIMIT})",
+            file=log,
+        )
+    return {
+        "checkpoint": opts.checkpoint,
+        "preset": runner.preset,
+        "iteration": runner.iteration,
+        "seed": opts.seed,
+        "grid": opts.grid,
+        "seconds": opts.seconds,
+        "wall_time_s": time.time() - t0,
+        "winner_agreement": sum(agree) / max(len(agree), 1),
+        "tracking_limit": TRACKING_LIMIT,
+        "cheapest_does_not_track": untracked,
+        "criterion": runner.env.cfg.predictor.criterion,
+        "rule": rule,
+        "cells": out_cells,
+        "config": to_dict(runner.env.cfg),
+    }
 
 
 def rule_summary(cells: list[dict], kinematic: torch.Tensor | None) -> dict:
@@ -217,10 +252,13 @@ def rule_summary(cells: list[dict], kinematic: torch.Tensor | None) -> dict:
     def tracks(cell: dict, gait: str) -> bool:
         return tracks_command(cell["sq_velocity_error"][gait], cell["fell"][gait])
 
-    out = {"selects_cheapest_tracking": sum(c["selected"] == c["measured_winner_tracking"] for c in cells
-                                            if c["measured_winner_tracking"]),
-           "cells_with_a_tracking_gait": sum(1 for c in cells if c["measured_winner_tracking"]),
-           "selects_a_tracking_gait": sum(tracks(c, c["selected"]) for c in cells)}  # fmt: skip
+    out = {
+        "selects_cheapest_tracking": sum(
+            c["selected"] == c["measured_winner_tracking"] for c in cells if c["measured_winner_tracking"]
+        ),
+        "cells_with_a_tracking_gait": sum(1 for c in cells if c["measured_winner_tracking"]),
+        "selects_a_tracking_gait": sum(tracks(c, c["selected"]) for c in cells),
+    }
     if "predicted_sq_velocity_error" not in cells[0]:
         return out
     best = 0
@@ -231,9 +269,11 @@ def rule_summary(cells: list[dict], kinematic: torch.Tensor | None) -> dict:
         kin = gaits if kinematic is None else [g for k, g in enumerate(gaits) if bool(kinematic[i, k])]
         best += min(kin, key=pred.get) == min(kin, key=meas.get)
         where_tracking += [pred[g] for g in gaits if tracks(c, g)]
-    out["tracking_head"] = {"argmin_is_best_tracker": best,
-                            "median_predicted_where_tracking": float(np.median(where_tracking)) if where_tracking
-                            else float("nan"), "robot_cells_tracking": len(where_tracking)}  # fmt: skip
+    out["tracking_head"] = {
+        "argmin_is_best_tracker": best,
+        "median_predicted_where_tracking": float(np.median(where_tracking)) if where_tracking else float("nan"),
+        "robot_cells_tracking": len(where_tracking),
+    }
     return out
 
 
@@ -267,8 +307,12 @@ def draw_energy_map(result: dict, path: str, command: str | None = None) -> None
                     ax[row, col].text(j, i, text, ha="center", va="center", fontsize=6, color="w")
             ax[row, col].set_title(f"{gait}: measured (predicted) W", fontsize=9)
             fig.colorbar(im, ax=ax[row, col], fraction=0.046)
-        win = np.array([[gaits.index(at[(u, v)]["measured_winner"]) if at[(u, v)]["measured_winner"] else -1
-                         for u in us] for v in vs])  # fmt: skip
+        win = np.array(
+            [
+                [gaits.index(at[(u, v)]["measured_winner"]) if at[(u, v)]["measured_winner"] else -1 for u in us]
+                for v in vs
+            ]
+        )
         cmap = ListedColormap(["#dddddd", *plt.get_cmap("tab10").colors[: len(gaits)]])  # grey: no gait stayed up
         ax[row, -1].imshow(win + 1, origin="lower", cmap=cmap, vmin=0, vmax=len(gaits), aspect="auto")
         for i, v in enumerate(vs):
@@ -278,15 +322,18 @@ def draw_energy_map(result: dict, path: str, command: str | None = None) -> None
                 if c["measured_winner_tracking"] != c["measured_winner"]:
                     text += f"\ntrack {(c['measured_winner_tracking'] or 'none')[:5]}"
                 ax[row, -1].text(j, i, text, ha="center", va="center", fontsize=6)
-        ax[row, -1].set_title("cheapest: measured (colour); 'sel': the rule's choice;\n'track': cheapest that tracks",
-                              fontsize=8)  # fmt: skip
+        ax[row, -1].set_title(
+            "cheapest: measured (colour); 'sel': the rule's choice;\n'track': cheapest that tracks", fontsize=8
+        )
         for axx in ax[row]:
             axx.set_xticks(range(len(us)), [f"{u:g}" for u in us], fontsize=7)
             axx.set_yticks(range(len(vs)), [f"{v:g}" for v in vs], fontsize=7)
             axx.set_xlabel(labels[a])
         ax[row, 0].set_ylabel(labels[b])
-    fig.suptitle(f"gait energy map: {result['preset']} (iteration {result['iteration']}), "
-                 f"x = the trunk touched the ground", fontsize=10)  # fmt: skip
+    fig.suptitle(
+        f"gait energy map: {result['preset']} (iteration {result['iteration']}), x = the trunk touched the ground",
+        fontsize=10,
+    )
     fig.tight_layout()
     from wqwarp.utils.provenance import save_figure
 

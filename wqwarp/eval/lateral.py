@@ -29,8 +29,9 @@ YAW_LIMIT = 0.2
 class LateralOptions(SelectionOptions):
     """Options of the pure-lateral probe (``train/evaluate.py --protocol lateral``)."""
 
-    commands: str = option("-0.6,-0.3,0.3,0.6", help="comma-separated held v_y commands [m/s] (default "
-                           "-0.6,-0.3,0.3,0.6)")  # fmt: skip
+    commands: str = option(
+        "-0.6,-0.3,0.3,0.6", help="comma-separated held v_y commands [m/s] (default -0.6,-0.3,0.3,0.6)"
+    )
     robots_per_command: int = option(8, help="robots holding each command (default 8)")
     seconds: float = option(10.0, help="rollout length [s]; metrics after 2 s (default 10)")
     per_gait: bool = option(False, help="predictive presets: also run every gait of the library forced")
@@ -51,8 +52,9 @@ class LateralOptions(SelectionOptions):
 
 
 @torch.no_grad()
-def probe(runner, commands: list[float], per_command: int, seconds: float, forced_gait: int | None = None,
-          settle: float = 2.0) -> list[dict]:  # fmt: skip
+def probe(
+    runner, commands: list[float], per_command: int, seconds: float, forced_gait: int | None = None, settle: float = 2.0
+) -> list[dict]:
     """One row per command: the means over its robots after ``settle`` [s]."""
     env, sel = runner.env, runner.env.gait_selector
     n = env.num_envs
@@ -84,8 +86,14 @@ def probe(runner, commands: list[float], per_command: int, seconds: float, force
         r = slice(i * per_command, (i + 1) * per_command)
         vy = float(v[:, r, 1].mean())
         wz = float(v[:, r, 2].mean())
-        row = {"command_vy": c, "vy": vy, "ratio": vy / c if c else None, "wz": wz,
-               "vx": float(v[:, r, 0].mean()), "upright": float((~fell[r]).float().mean())}  # fmt: skip
+        row = {
+            "command_vy": c,
+            "vy": vy,
+            "ratio": vy / c if c else None,
+            "wz": wz,
+            "vx": float(v[:, r, 0].mean()),
+            "upright": float((~fell[r]).float().mean()),
+        }
         if foot_y:
             fy = torch.stack(foot_y)[:, r]  # (T, k, 4)
             row["foot_y_stroke_m"] = float((fy.amax(0) - fy.amin(0)).mean())
@@ -93,13 +101,18 @@ def probe(runner, commands: list[float], per_command: int, seconds: float, force
             row["foot_residual_mean_m"] = posture.tolist()
             row["foot_residual_abs_mean_m"] = float(posture.abs().mean())
             d = torch.stack(dphi)[:, r].flatten()
-            row["phase_residual"] = {"mean": float(d.mean()), "std": float(d.std()),
-                                     "p05": float(d.quantile(0.05)), "p95": float(d.quantile(0.95))}  # fmt: skip
+            row["phase_residual"] = {
+                "mean": float(d.mean()),
+                "std": float(d.std()),
+                "p05": float(d.quantile(0.05)),
+                "p95": float(d.quantile(0.95)),
+            }
             row["swing_share"] = float(torch.stack(swing)[:, r].mean())
         g = torch.stack(gaits)[:, r].flatten()
         row["gait_usage"] = {name: float((g == j).float().mean()) for j, name in enumerate(env.gait_names)}
-        row["tracked"] = bool(c and abs(vy / c - 1.0) <= RATIO_TOLERANCE and abs(wz) < YAW_LIMIT
-                              and row["upright"] == 1.0)  # fmt: skip
+        row["tracked"] = bool(
+            c and abs(vy / c - 1.0) <= RATIO_TOLERANCE and abs(wz) < YAW_LIMIT and row["upright"] == 1.0
+        )
         rows.append(row)
     return rows
 
@@ -110,8 +123,14 @@ def lateral(opts: LateralOptions, log: TextIO) -> dict:
 
     opts.validate()
     commands = opts.command_list()
-    runner = make_policy_runner(opts.checkpoint, None, len(commands) * opts.robots_per_command, opts.device,
-                                seed=opts.seed, criterion=opts.criterion)  # fmt: skip
+    runner = make_policy_runner(
+        opts.checkpoint,
+        None,
+        len(commands) * opts.robots_per_command,
+        opts.device,
+        seed=opts.seed,
+        criterion=opts.criterion,
+    )
     env = runner.env
     runs = [("selected", None)]
     if opts.per_gait:
@@ -119,10 +138,16 @@ def lateral(opts: LateralOptions, log: TextIO) -> dict:
             raise ValueError(f"--per-gait needs a predictive preset, not {runner.preset}")
         runs += [(name, j) for j, name in enumerate(env.gait_names)]
     out = {}
-    print(f"lateral probe of {opts.checkpoint} ({runner.preset}, iteration {runner.iteration}): held v_y, v_x = "
-          f"w_z = 0, {opts.robots_per_command} robots each, {opts.seconds:g} s", file=log)  # fmt: skip
-    print(f"{'gait':<10} {'cmd':>6} {'v_y':>7} {'ratio':>6} {'w_z':>7} {'stroke':>7} {'posture':>7} {'dphi std':>8} "
-          f"{'up':>5} tracked", file=log)  # fmt: skip
+    print(
+        f"lateral probe of {opts.checkpoint} ({runner.preset}, iteration {runner.iteration}): held v_y, v_x = "
+        f"w_z = 0, {opts.robots_per_command} robots each, {opts.seconds:g} s",
+        file=log,
+    )
+    print(
+        f"{'gait':<10} {'cmd':>6} {'v_y':>7} {'ratio':>6} {'w_z':>7} {'stroke':>7} {'posture':>7} {'dphi std':>8} "
+        f"{'up':>5} tracked",
+        file=log,
+    )
     for label, forced in runs:
         rows = probe(runner, commands, opts.robots_per_command, opts.seconds, forced)
         out[label] = rows
@@ -131,10 +156,20 @@ def lateral(opts: LateralOptions, log: TextIO) -> dict:
             stroke = f"{100 * r.get('foot_y_stroke_m', 0.0):.1f}cm"
             posture = f"{100 * r.get('foot_residual_abs_mean_m', 0.0):.1f}cm"
             std = f"{r['phase_residual']['std']:.3f}" if "phase_residual" in r else "-"
-            print(f"{label:<10} {r['command_vy']:>6.2f} {r['vy']:>7.3f} {ratio:>6} {r['wz']:>7.3f} {stroke:>7} "
-                  f"{posture:>7} {std:>8} {r['upright']:>5.2f} {'yes' if r['tracked'] else 'no'}",
-                  file=log)  # fmt: skip
-    return {"checkpoint": opts.checkpoint, "preset": runner.preset, "iteration": runner.iteration,
-            "seconds": opts.seconds, "robots_per_command": opts.robots_per_command, "seed": opts.seed,
-            "ratio_tolerance": RATIO_TOLERANCE, "yaw_limit": YAW_LIMIT, "runs": out,
-            "all_tracked": all(r["tracked"] for r in out["selected"])}  # fmt: skip
+            print(
+                f"{label:<10} {r['command_vy']:>6.2f} {r['vy']:>7.3f} {ratio:>6} {r['wz']:>7.3f} {stroke:>7} "
+                f"{posture:>7} {std:>8} {r['upright']:>5.2f} {'yes' if r['tracked'] else 'no'}",
+                file=log,
+            )
+    return {
+        "checkpoint": opts.checkpoint,
+        "preset": runner.preset,
+        "iteration": runner.iteration,
+        "seconds": opts.seconds,
+        "robots_per_command": opts.robots_per_command,
+        "seed": opts.seed,
+        "ratio_tolerance": RATIO_TOLERANCE,
+        "yaw_limit": YAW_LIMIT,
+        "runs": out,
+        "all_tracked": all(r["tracked"] for r in out["selected"]),
+    }

@@ -75,10 +75,18 @@ def checkpoint_gait_names(path: str) -> tuple[str, ...]:
     return tuple(g.name for g in checkpoint_env_config(path).gait.library)
 
 
-def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, device: str = "cpu",
-                       cfg: EnvConfig | None = None, dt: float | None = None,
-                       evaluation_selection: str | None = None, physics: str = "train",
-                       seed: int | None = None, criterion: str | None = None) -> PolicyRunner:  # fmt: skip
+def make_policy_runner(
+    checkpoint: str,
+    preset: str | None,
+    num_envs: int,
+    device: str = "cpu",
+    cfg: EnvConfig | None = None,
+    dt: float | None = None,
+    evaluation_selection: str | None = None,
+    physics: str = "train",
+    seed: int | None = None,
+    criterion: str | None = None,
+) -> PolicyRunner:
     """Build the environment from the configuration stored in ``checkpoint`` (with ``evaluation_config``'s named
     overrides; ``cfg`` replaces it entirely) and load the policy, estimator and gait selector. ``preset`` is the
     label of the results; if given it must match how the checkpoint was trained. Raises ValueError for a missing
@@ -96,7 +104,13 @@ def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, devic
             check_preset(preset, trained, checkpoint)
         recorded = recorded or infer_preset(trained)
         cfg = evaluation_config(
-            trained, num_envs, device, dt=dt, evaluation_selection=evaluation_selection, physics=physics, seed=seed,
+            trained,
+            num_envs,
+            device,
+            dt=dt,
+            evaluation_selection=evaluation_selection,
+            physics=physics,
+            seed=seed,
             criterion=criterion,
         )
     preset = preset or recorded or "unknown"
@@ -110,7 +124,9 @@ def make_policy_runner(checkpoint: str, preset: str | None, num_envs: int, devic
         if sel.name != "predictive":
             raise ValueError(f"a selection criterion needs a predictive preset, not {preset}")
         if env.cfg.predictor.tracking_head and not sel.tracker_fitted:
-            raise ValueError(f"criterion {criterion} needs a tracking head; {os.path.basename(checkpoint)} was trained "
-                             f"with {trained.predictor.criterion} and has none")  # fmt: skip
+            raise ValueError(
+                f"criterion {criterion} needs a tracking head; {os.path.basename(checkpoint)} was trained "
+                f"with {trained.predictor.criterion} and has none"
+            )
     policy = runner.get_inference_policy(device=env.device)
     return PolicyRunner(env=env, policy=policy, preset=preset, iteration=int(runner.current_learning_iteration))

@@ -27,8 +27,15 @@ w each in [-1, 1])."""
 
 MIN_COT_SPEED = 0.1
 """Mean planar speed [m/s] below which no cost of transport is reported."""
-POWER_KEYS = ("p_cost", "p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs",
-              "p_joule_wheels")  # fmt: skip
+POWER_KEYS = (
+    "p_cost",
+    "p_cost_legs",
+    "p_cost_wheels",
+    "p_mech_legs",
+    "p_mech_wheels",
+    "p_joule_legs",
+    "p_joule_wheels",
+)
 """Per-robot power outputs of the simulator (``env.tv``) that a task averages [W]."""
 
 
@@ -125,17 +132,32 @@ class TaskMetrics:
         speed = float(self.speed.mean()) / c
         translating = self.task in ("vx", "vy") and speed >= MIN_COT_SPEED  # a yawing or standing base moves too
         return {
-            "mse": mse_axes[self.axis], "mean_abs_error": float(self.abs_err.mean()) / c, "mse_axes": mse_axes,
-            "mean_p_cost": m["p_cost"], "mean_p_cost_legs": m["p_cost_legs"], "mean_p_cost_wheels": m["p_cost_wheels"],
-            "mean_p_mech": m["p_mech_legs"] + m["p_mech_wheels"], "mean_p_mech_legs": m["p_mech_legs"],
-            "mean_p_mech_wheels": m["p_mech_wheels"], "mean_p_joule": m["p_joule_legs"] + m["p_joule_wheels"],
+            "mse": mse_axes[self.axis],
+            "mean_abs_error": float(self.abs_err.mean()) / c,
+            "mse_axes": mse_axes,
+            "mean_p_cost": m["p_cost"],
+            "mean_p_cost_legs": m["p_cost_legs"],
+            "mean_p_cost_wheels": m["p_cost_wheels"],
+            "mean_p_mech": m["p_mech_legs"] + m["p_mech_wheels"],
+            "mean_p_mech_legs": m["p_mech_legs"],
+            "mean_p_mech_wheels": m["p_mech_wheels"],
+            "mean_p_joule": m["p_joule_legs"] + m["p_joule_wheels"],
             "mean_speed": speed,
             "cost_of_transport": m["p_cost"] / (robot_mass * 9.81 * speed) if translating else None,
-        }  # fmt: skip
+        }
 
 
-DELTA_KEYS = ("mse", "mean_abs_error", "mean_p_cost", "mean_p_cost_legs", "mean_p_cost_wheels", "mean_p_mech",
-              "mean_p_joule", "upright", "falls")  # fmt: skip
+DELTA_KEYS = (
+    "mse",
+    "mean_abs_error",
+    "mean_p_cost",
+    "mean_p_cost_legs",
+    "mean_p_cost_wheels",
+    "mean_p_mech",
+    "mean_p_joule",
+    "upright",
+    "falls",
+)
 """Metrics whose change between two physics the sim-to-sim protocol reports."""
 
 

@@ -39,8 +39,11 @@ class ProtocolOptions:
 
     def outputs(self) -> dict[str, str]:
         """Flag -> path of every result file this run writes (checked writable before any work)."""
-        return {flag(f.name): getattr(self, f.name) for f in fields(self) if f.metadata.get("output")
-                and getattr(self, f.name)}  # fmt: skip
+        return {
+            flag(f.name): getattr(self, f.name)
+            for f in fields(self)
+            if f.metadata.get("output") and getattr(self, f.name)
+        }
 
 
 @dataclass(kw_only=True)
@@ -48,10 +51,13 @@ class SelectionOptions(ProtocolOptions):
     """The options of a protocol that runs a predictive checkpoint's gait selection: ``--criterion`` runs the policy
     under another selection rule than the one it was trained with (a rule A/B with the network held fixed)."""
 
-    criterion: str | None = option(None, choices=SELECTION_CRITERIA,
-                                   help="predictive presets: select gaits by this criterion instead of the "
-                                   "checkpoint's (a rule A/B on one policy; nothing learns); feasible and "
-                                   "kinematic_feasible need a checkpoint with a tracking head")  # fmt: skip
+    criterion: str | None = option(
+        None,
+        choices=SELECTION_CRITERIA,
+        help="predictive presets: select gaits by this criterion instead of the "
+        "checkpoint's (a rule A/B on one policy; nothing learns); feasible and "
+        "kinematic_feasible need a checkpoint with a tracking head",
+    )
 
 
 def command_line(prefix: str, opts: ProtocolOptions, defaults: dict | None = None) -> str:
@@ -68,4 +74,3 @@ def command_line(prefix: str, opts: ProtocolOptions, defaults: dict | None = Non
         else:
             out += [flag(f.name), shlex.quote(f"{value:g}" if isinstance(value, float) else str(value))]
     return " ".join(out)
-

@@ -29,18 +29,33 @@ class PhysicsVariant:
 
     def overrides(self) -> dict:
         """The set fields as a dict (recorded as ``"overrides"`` in result files)."""
-        return {k: v for k, v in (("dt", self.dt), ("joint_model", self.joint_model), ("friction", self.friction))
-                if v is not None}  # fmt: skip
+        return {
+            k: v
+            for k, v in (("dt", self.dt), ("joint_model", self.joint_model), ("friction", self.friction))
+            if v is not None
+        }
 
 
-PHYSICS_VARIANTS = {v.name: v for v in (
-    PhysicsVariant("train", "as trained (no randomisation: every contact at domain_rand.nominal_friction)"),
-    PhysicsVariant("dt0.001", "the paper's physics step, 0.001 s x 20 per policy step", dt=0.001),
-    PhysicsVariant("authors", "the authors' MuJoCo robot's joint damping, armature and friction loss and their ground "
-                   "friction 0.6", joint_model="authors", friction=AUTHORS_GROUND_FRICTION),
-    PhysicsVariant("authors_dt0.001", "authors and dt0.001 together", dt=0.001, joint_model="authors",
-                   friction=AUTHORS_GROUND_FRICTION),
-)}  # fmt: skip
+PHYSICS_VARIANTS = {
+    v.name: v
+    for v in (
+        PhysicsVariant("train", "as trained (no randomisation: every contact at domain_rand.nominal_friction)"),
+        PhysicsVariant("dt0.001", "the paper's physics step, 0.001 s x 20 per policy step", dt=0.001),
+        PhysicsVariant(
+            "authors",
+            "the authors' MuJoCo robot's joint damping, armature and friction loss and their ground friction 0.6",
+            joint_model="authors",
+            friction=AUTHORS_GROUND_FRICTION,
+        ),
+        PhysicsVariant(
+            "authors_dt0.001",
+            "authors and dt0.001 together",
+            dt=0.001,
+            joint_model="authors",
+            friction=AUTHORS_GROUND_FRICTION,
+        ),
+    )
+}
 """Physics configurations of sim-to-sim evaluation, by name."""
 
 PHYSICS = {name: v.overrides() for name, v in PHYSICS_VARIANTS.items()}

@@ -37,24 +37,55 @@ class Protocol:
     """Indent of the JSON result (None: compact, for time series)."""
 
 
-PROTOCOLS = {p.name: p for p in (
-    Protocol("tracking", tracking, TrackingOptions, "--tasks over the paper's tracking ranges, --push optional"),
-    Protocol("push", push, TrackingOptions, "Table III - tasks stand, vx, vy, wz with commands in [-1, 1], random "
-             "pushes up to each of --push-levels m/s every 15 s along the trunk's x and y; a robot recovers if its "
-             "trunk never touches the ground (default 60 s per run)",
-             defaults={"tasks": "stand,vx,vy,wz", "seconds": 60.0}),
-    Protocol("sim2sim", sim2sim, TrackingOptions, "tracking under the training physics and under each of --physics "
-             "(default the paper's dt 0.001 x 20 and the authors' joint model), with the deltas",
-             defaults={"physics": "dt0.001,authors"}),
-    Protocol("timeline", timeline, TimelineOptions, "the paper's Fig. 6: robots through held --segments, gaits, "
-             "power and the FR wheel height over time (train/reproduce.py: the Fig. 6 segments)",
-             draw=draw_timeline, json_indent=None),
-    Protocol("lateral", lateral, LateralOptions, "pure lateral commands held (default +-0.3, +-0.6 m/s): v_y and its "
-             "ratio to the command, the yaw rate it drags along, the commanded foot-y stroke, the phase-residual "
-             "spread, falls; tracked = within 30 % with |w_z| < 0.2 rad/s and no falls; --per-gait forces each gait"),
-    Protocol("energymap", energy_map, EnergyMapOptions, "per command cell of a (v_x, v_y) and a (v_x, w) grid: each "
-             "gait's measured and predicted power and the cheapest gait", draw=draw_energy_map, json_indent=None),
-)}  # fmt: skip
+PROTOCOLS = {
+    p.name: p
+    for p in (
+        Protocol("tracking", tracking, TrackingOptions, "--tasks over the paper's tracking ranges, --push optional"),
+        Protocol(
+            "push",
+            push,
+            TrackingOptions,
+            "Table III - tasks stand, vx, vy, wz with commands in [-1, 1], random "
+            "pushes up to each of --push-levels m/s every 15 s along the trunk's x and y; a robot recovers if its "
+            "trunk never touches the ground (default 60 s per run)",
+            defaults={"tasks": "stand,vx,vy,wz", "seconds": 60.0},
+        ),
+        Protocol(
+            "sim2sim",
+            sim2sim,
+            TrackingOptions,
+            "tracking under the training physics and under each of --physics "
+            "(default the paper's dt 0.001 x 20 and the authors' joint model), with the deltas",
+            defaults={"physics": "dt0.001,authors"},
+        ),
+        Protocol(
+            "timeline",
+            timeline,
+            TimelineOptions,
+            "the paper's Fig. 6: robots through held --segments, gaits, "
+            "power and the FR wheel height over time (train/reproduce.py: the Fig. 6 segments)",
+            draw=draw_timeline,
+            json_indent=None,
+        ),
+        Protocol(
+            "lateral",
+            lateral,
+            LateralOptions,
+            "pure lateral commands held (default +-0.3, +-0.6 m/s): v_y and its "
+            "ratio to the command, the yaw rate it drags along, the commanded foot-y stroke, the phase-residual "
+            "spread, falls; tracked = within 30 % with |w_z| < 0.2 rad/s and no falls; --per-gait forces each gait",
+        ),
+        Protocol(
+            "energymap",
+            energy_map,
+            EnergyMapOptions,
+            "per command cell of a (v_x, v_y) and a (v_x, w) grid: each "
+            "gait's measured and predicted power and the cheapest gait",
+            draw=draw_energy_map,
+            json_indent=None,
+        ),
+    )
+}
 """Every evaluation protocol, by name."""
 
 

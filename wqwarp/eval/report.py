@@ -17,17 +17,36 @@ from wqwarp.rl.tasks import TASKS
 
 TABLE3_ORDER = ("ours", "baseline", "pmtg", "no_wheel_vel", "no_predictor")
 PAPER_TABLE3 = {
-    0.5: {"stand": (100.0, 95.6, 68.5, 96.5, 84.3), "vx": (100.0, 84.8, 67.8, 92.7, 82.8),
-          "vy": (99.8, 45.3, 61.2, 87.1, 76.0), "wz": (99.7, 47.0, 60.4, 91.2, 78.9)},
-    0.7: {"stand": (98.7, 89.8, 58.4, 86.7, 63.4), "vx": (97.6, 72.5, 57.3, 84.2, 61.8),
-          "vy": (91.7, 26.5, 56.8, 79.7, 57.6), "wz": (93.8, 39.1, 54.3, 84.9, 58.9)},
-}  # fmt: skip
+    0.5: {
+        "stand": (100.0, 95.6, 68.5, 96.5, 84.3),
+        "vx": (100.0, 84.8, 67.8, 92.7, 82.8),
+        "vy": (99.8, 45.3, 61.2, 87.1, 76.0),
+        "wz": (99.7, 47.0, 60.4, 91.2, 78.9),
+    },
+    0.7: {
+        "stand": (98.7, 89.8, 58.4, 86.7, 63.4),
+        "vx": (97.6, 72.5, 57.3, 84.2, 61.8),
+        "vy": (91.7, 26.5, 56.8, 79.7, 57.6),
+        "wz": (93.8, 39.1, 54.3, 84.9, 58.9),
+    },
+}
 """The paper's Table III [% recovered], columns in :data:`TABLE3_ORDER`."""
 TASK_NAMES = {"stand": "stand", "vx": "$v_x$", "vy": "$v_y$", "wz": "$\\omega$"}
 PLAIN_NAMES = {"stand": "stand", "vx": "v_x", "vy": "v_y", "wz": "w"}
 SETTINGS = {"stand": "v_x = v_y = w = 0", "vx": "v_x in [-1, 1]", "vy": "v_y in [-1, 1]", "wz": "w in [-1, 1]"}
-METRICS = ("mse", "mean_abs_error", "mean_p_cost", "mean_p_cost_legs", "mean_p_cost_wheels", "mean_p_mech",
-           "mean_p_joule", "cost_of_transport", "upright", "falls", "predicted_power_running")  # fmt: skip
+METRICS = (
+    "mse",
+    "mean_abs_error",
+    "mean_p_cost",
+    "mean_p_cost_legs",
+    "mean_p_cost_wheels",
+    "mean_p_mech",
+    "mean_p_joule",
+    "cost_of_transport",
+    "upright",
+    "falls",
+    "predicted_power_running",
+)
 
 
 def read_json(path: str) -> dict | None:
@@ -186,8 +205,16 @@ def method_of(task: str) -> str:
     return TASKS[task].method if task in TASKS else task
 
 
-def write_report(work: str, out: str, budget_name: str, budget, presets: list[str], seeds: list[int],
-                 wall_s: float, trained: set[tuple[str, int]]) -> dict:  # fmt: skip
+def write_report(
+    work: str,
+    out: str,
+    budget_name: str,
+    budget,
+    presets: list[str],
+    seeds: list[int],
+    wall_s: float,
+    trained: set[tuple[str, int]],
+) -> dict:
     """Write ``out/RESULTS.md`` and ``out/results/<budget>/`` (results.json, the evaluation JSONs, PNGs); ``trained``
     holds the (preset, seed) whose training is done (``wqwarp.eval.reproduce.trained``): the others are listed in
     progress, nothing of them recorded."""
@@ -226,8 +253,9 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
                 dst = os.path.join(res_dir, f"{p}_s{sd}_train_config.json")
                 shutil.copyfile(os.path.join(base, "config.json"), dst)
             if training[p][sd]:  # what --import-from restores in a later session
-                write_text_atomic(os.path.join(res_dir, f"{p}_s{sd}_train_info.json"),
-                                  json.dumps(training[p][sd], indent=2))  # fmt: skip
+                write_text_atomic(
+                    os.path.join(res_dir, f"{p}_s{sd}_train_info.json"), json.dumps(training[p][sd], indent=2)
+                )
             if os.path.isfile(base + ".log"):
                 with open(base + ".log", encoding="utf-8", errors="replace") as f:
                     text = "\n".join(line.split("\r")[-1] for line in f.read().splitlines())
@@ -239,9 +267,19 @@ def write_report(work: str, out: str, budget_name: str, budget, presets: list[st
             eval_s += float(read_json(os.path.join(res_dir, name)).get("wall_time_s") or 0.0)
     trained_as = list(dict.fromkeys(x for p in tasks for sd in seeds if (x := run_task(work, p, sd))))
     training = {method_of(t): per_seed for t, per_seed in training.items()}
-    summary = {"budget": budget_name, "sizes": asdict(budget), "presets": presets, "tasks": tasks, "seeds": seeds,
-               "trained_as": trained_as, "wall_time_s": wall_s, "evaluation_wall_time_s": eval_s, "training": training,
-               "figures": figures, **data}  # fmt: skip
+    summary = {
+        "budget": budget_name,
+        "sizes": asdict(budget),
+        "presets": presets,
+        "tasks": tasks,
+        "seeds": seeds,
+        "trained_as": trained_as,
+        "wall_time_s": wall_s,
+        "evaluation_wall_time_s": eval_s,
+        "training": training,
+        "figures": figures,
+        **data,
+    }
     write_result_json(os.path.join(res_dir, "results.json"), summary)
     md = render_markdown(summary, budget_name, budget, res_dir, out, work, git)
     tmp = os.path.join(out, "RESULTS.md.tmp")
@@ -275,9 +313,11 @@ def _ordering_checks(summary: dict) -> list[str]:
             best = min(vals, key=vals.get)
             ok = best == "ours"
             ours = "" if ok else f", Ours {vals['ours']:.4f}"
-            lines.append(f"- {PLAIN_NAMES[task]} task, lowest tracking MSE: paper Ours; here "
-                         f"{PAPER_NAMES[best]} ({vals[best]:.4f}){ours} -> "
-                         f"{'agrees' if ok else 'differs'}")  # fmt: skip
+            lines.append(
+                f"- {PLAIN_NAMES[task]} task, lowest tracking MSE: paper Ours; here "
+                f"{PAPER_NAMES[best]} ({vals[best]:.4f}){ours} -> "
+                f"{'agrees' if ok else 'differs'}"
+            )
     powers = {}
     for p in have:
         vals = [metric(p, t, "mean_p_cost") for t in ("vx", "vy", "wz")]
@@ -285,31 +325,41 @@ def _ordering_checks(summary: dict) -> list[str]:
             powers[p] = statistics.fmean(vals)
     if len(powers) > 1:
         hi, lo = max(powers, key=powers.get), min(powers, key=powers.get)
-        lines.append(f"- highest mean power over the three tasks: paper PMTG; here {PAPER_NAMES[hi]} "
-                     f"({powers[hi]:.1f} W) -> {'agrees' if hi == 'pmtg' else 'differs'}")  # fmt: skip
-        lines.append(f"- lowest mean power over the three tasks: paper Ours; here {PAPER_NAMES[lo]} "
-                     f"({powers[lo]:.1f} W) -> {'agrees' if lo == 'ours' else 'differs'}")  # fmt: skip
+        lines.append(
+            f"- highest mean power over the three tasks: paper PMTG; here {PAPER_NAMES[hi]} "
+            f"({powers[hi]:.1f} W) -> {'agrees' if hi == 'pmtg' else 'differs'}"
+        )
+        lines.append(
+            f"- lowest mean power over the three tasks: paper Ours; here {PAPER_NAMES[lo]} "
+            f"({powers[lo]:.1f} W) -> {'agrees' if lo == 'ours' else 'differs'}"
+        )
         tracking = {p: w for p, w in powers.items() if all(tracks(p, t) for t in ("vx", "vy", "wz"))}
         if lo not in tracking and len(tracking) > 1:  # the paper compares at comparable tracking
             best, *rest = sorted(tracking, key=tracking.get)
             others = ", ".join(f"{PAPER_NAMES[p]} {tracking[p]:.1f} W" for p in rest)
-            lines.append(f"- ... among the methods that track all three tasks (MSE below half that of a robot that "
-                         f"ignores the command): here {PAPER_NAMES[best]} ({tracking[best]:.1f} W; {others}) -> "
-                         f"{'agrees' if best == 'ours' else 'differs'}")  # fmt: skip
+            lines.append(
+                f"- ... among the methods that track all three tasks (MSE below half that of a robot that "
+                f"ignores the command): here {PAPER_NAMES[best]} ({tracking[best]:.1f} W; {others}) -> "
+                f"{'agrees' if best == 'ours' else 'differs'}"
+            )
     for p in have:
         for task in ("vx", "vy", "wz"):
             mse, var = mse_var(p, task)
             if mse is not None and not tracks(p, task):
                 how = "not tracked" if mse >= 0.9 * var else "barely tracked"
-                lines.append(f"- {PAPER_NAMES[p]}: {PLAIN_NAMES[task]} MSE {mse:.3f}, {100 * mse / var:.0f} % of the "
-                             f"{var:.3f} of a robot that ignores the command: {how}, so its power is not the power "
-                             "of doing the task")  # fmt: skip
+                lines.append(
+                    f"- {PAPER_NAMES[p]}: {PLAIN_NAMES[task]} MSE {mse:.3f}, {100 * mse / var:.0f} % of the "
+                    f"{var:.3f} of a robot that ignores the command: {how}, so its power is not the power "
+                    "of doing the task"
+                )
     for p in have:
         per_task = {t: metric(p, t, "mean_p_cost") for t in ("vx", "vy", "wz")}
         if all(v is not None for v in per_task.values()):
             lo = min(per_task, key=per_task.get)
-            lines.append(f"- {PAPER_NAMES[p]}: cheapest task {PLAIN_NAMES[lo]} (paper: the forward task "
-                         f"v_x for every method) -> {'agrees' if lo == 'vx' else 'differs'}")  # fmt: skip
+            lines.append(
+                f"- {PAPER_NAMES[p]}: cheapest task {PLAIN_NAMES[lo]} (paper: the forward task "
+                f"v_x for every method) -> {'agrees' if lo == 'vx' else 'differs'}"
+            )
     return lines
 
 
@@ -335,41 +385,53 @@ def _target_checks(summary: dict, res_dir: str | None = None) -> list[str]:
     def verdict(ok: bool) -> str:
         return "met" if ok else "not met"
 
-    po, pf, mo, mf = (mean(b, "vx", m) for b, m in ((t, "mean_p_cost"), (fixed, "mean_p_cost"), (t, "mse"),
-                                                       (fixed, "mse")))  # fmt: skip
+    po, pf, mo, mf = (
+        mean(b, "vx", m) for b, m in ((t, "mean_p_cost"), (fixed, "mean_p_cost"), (t, "mse"), (fixed, "mse"))
+    )
     if None not in (po, pf, mo, mf) and pf > 0 and mf > 0:
-        lines.append(f"- headline, v_x task: Ours {po:.1f} W = {po / pf:.2f}x the fixed trot's {pf:.1f} W at "
-                     f"{mo / mf:.2f}x its MSE ({mo:.4f} vs {mf:.4f}); target <= 0.65x at <= 1.1x -> "
-                     f"{verdict(po / pf <= 0.65 and mo / mf <= 1.1)}")  # fmt: skip
+        lines.append(
+            f"- headline, v_x task: Ours {po:.1f} W = {po / pf:.2f}x the fixed trot's {pf:.1f} W at "
+            f"{mo / mf:.2f}x its MSE ({mo:.4f} vs {mf:.4f}); target <= 0.65x at <= 1.1x -> "
+            f"{verdict(po / pf <= 0.65 and mo / mf <= 1.1)}"
+        )
     for task, want, label in (("vy", LEGGED, "legged gaits"), ("vx", ("driving",), "driving")):
         usage = t.get(task, {}).get("gait_usage")
         if usage:
             share = sum(usage.get(g, 0.0) for g in want)
-            lines.append(f"- gait pattern, {PLAIN_NAMES[task]} task: {label} {100 * share:.0f} % of robot-time; "
-                         f"target >= 80 % -> {verdict(share >= 0.8)}")  # fmt: skip
+            lines.append(
+                f"- gait pattern, {PLAIN_NAMES[task]} task: {label} {100 * share:.0f} % of robot-time; "
+                f"target >= 80 % -> {verdict(share >= 0.8)}"
+            )
     for task in ("stand", "vx", "vy", "wz"):
         pred, real = mean(t, task, "predicted_power_running"), mean(t, task, "mean_p_cost")
         if pred is not None and real:
-            lines.append(f"- predictor, {PLAIN_NAMES[task]} task: forecast for the running gait {pred:.1f} W, "
-                         f"realised {real:.1f} W ({pred / real:.2f}x); target within 20 % -> "
-                         f"{verdict(abs(pred / real - 1.0) <= 0.2)}")  # fmt: skip
+            lines.append(
+                f"- predictor, {PLAIN_NAMES[task]} task: forecast for the running gait {pred:.1f} W, "
+                f"realised {real:.1f} W ({pred / real:.2f}x); target within 20 % -> "
+                f"{verdict(abs(pred / real - 1.0) <= 0.2)}"
+            )
     if (stand := mean(t, "stand", "mean_p_cost")) is not None:
         lines.append(f"- energy floor: Ours standing {stand:.1f} W; target <= 10 W -> {verdict(stand <= 10.0)}")
     if res_dir and (cell := _driving_cell(summary, res_dir)) is not None:
         p, err = cell
         tracked = err < DRIVING_TARGET[1] ** 2
-        lines.append(f"- driving floor: Ours at 1 m/s (energy map, driving gait forced, command (1, 0, 0)) "
-                     f"{p:.1f} W at squared speed error {err:.4f}; target <= {DRIVING_TARGET[0]:g} W at |v_x - 1| < "
-                     f"{DRIVING_TARGET[1]:g} m/s -> {verdict(tracked and p <= DRIVING_TARGET[0])}")  # fmt: skip
+        lines.append(
+            f"- driving floor: Ours at 1 m/s (energy map, driving gait forced, command (1, 0, 0)) "
+            f"{p:.1f} W at squared speed error {err:.4f}; target <= {DRIVING_TARGET[0]:g} W at |v_x - 1| < "
+            f"{DRIVING_TARGET[1]:g} m/s -> {verdict(tracked and p <= DRIVING_TARGET[0])}"
+        )
     nominal = summary["presets"].get("ours", {}).get("nominal") or {}
     for task in ("stand", "vx"):
-        pn, po, mn, mo = (mean(b, task, m) for b, m in ((nominal, "mean_p_cost"), (t, "mean_p_cost"),
-                                                        (nominal, "mse"), (t, "mse")))  # fmt: skip
+        pn, po, mn, mo = (
+            mean(b, task, m) for b, m in ((nominal, "mean_p_cost"), (t, "mean_p_cost"), (nominal, "mse"), (t, "mse"))
+        )
         if None not in (pn, po, mn, mo):
             times = f"{po / pn:.1f}x" if pn >= 1.0 else f"{po - pn:.1f} W above"  # no ratio to nearly nothing
-            lines.append(f"- residual's energy, {PLAIN_NAMES[task]} task: Ours {po:.1f} W = {times} the nominal "
-                         f"driving gait's {pn:.2f} W with zero residual (MSE {mo:.4f} vs {mn:.4f}); target <= "
-                         f"{NOMINAL_FACTOR:g}x -> {verdict(po <= NOMINAL_FACTOR * pn)}")  # fmt: skip
+            lines.append(
+                f"- residual's energy, {PLAIN_NAMES[task]} task: Ours {po:.1f} W = {times} the nominal "
+                f"driving gait's {pn:.2f} W with zero residual (MSE {mo:.4f} vs {mn:.4f}); target <= "
+                f"{NOMINAL_FACTOR:g}x -> {verdict(po <= NOMINAL_FACTOR * pn)}"
+            )
     return lines
 
 
@@ -426,17 +488,23 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     ]
     short = []
     if samples < paper_samples:
-        short.append(f"training sees {100 * samples / paper_samples:.2f} % of the paper's samples, so policies are "
-                     "less converged, and the temperature is annealed over fewer iterations")  # fmt: skip
+        short.append(
+            f"training sees {100 * samples / paper_samples:.2f} % of the paper's samples, so policies are "
+            "less converged, and the temperature is annealed over fewer iterations"
+        )
     if budget.eval_envs < 1000 or budget.eval_seconds < 60:
-        short.append(f"tracking and energy average {budget.eval_envs} robots over {budget.eval_seconds:g} s (paper: "
-                     "1000 over 60 s): wider sampling error")  # fmt: skip
+        short.append(
+            f"tracking and energy average {budget.eval_envs} robots over {budget.eval_seconds:g} s (paper: "
+            "1000 over 60 s): wider sampling error"
+        )
     pushes = int((budget.push_seconds - 1e-9) // budget.push_interval)
     if budget.push_seconds < 60 or budget.push_envs < 1000:
-        short.append(f"push recovery: {budget.push_envs} robots, {pushes} push(es) in {budget.push_seconds:g} s "
-                     f"(paper: 1000 robots, 60 s, a push every 15 s): fewer chances to fall, so recovery shares "
-                     f"are biased upwards, and each robot moves a share by {100 / budget.push_envs:.1f} "
-                     "points")  # fmt: skip
+        short.append(
+            f"push recovery: {budget.push_envs} robots, {pushes} push(es) in {budget.push_seconds:g} s "
+            f"(paper: 1000 robots, 60 s, a push every 15 s): fewer chances to fall, so recovery shares "
+            f"are biased upwards, and each robot moves a share by {100 / budget.push_envs:.1f} "
+            "points"
+        )
     if len(summary["seeds"]) < 2:
         short.append("one seed: no spread over seeds (`--seeds 3` adds it)")
     if short:
@@ -445,46 +513,70 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     if missing:
         lines += ["**Not run (yet):** " + "; ".join(missing) + ". Re-running the same command continues.", ""]
     # Tracking and energy.
-    lines += ["## Tracking and energy (the paper's Fig. 5)", "",
-              "One command axis per task, spread evenly over the paper's range (v_x [-1, 1] m/s, v_y [-0.7, 0.7] m/s, "
-              "w [-0.7, 0.7] rad/s; stand: all zero), held for the whole run; metrics after 2 s of settling over all "
-              "robots, falls beside. p_cost = sum |tau| |qd| over the 16 joints; CoT = p_cost / (m g mean speed). "
-              "Mean ± standard deviation over seeds where there are several.", ""]  # fmt: skip
+    lines += [
+        "## Tracking and energy (the paper's Fig. 5)",
+        "",
+        "One command axis per task, spread evenly over the paper's range (v_x [-1, 1] m/s, v_y [-0.7, 0.7] m/s, "
+        "w [-0.7, 0.7] rad/s; stand: all zero), held for the whole run; metrics after 2 s of settling over all "
+        "robots, falls beside. p_cost = sum |tau| |qd| over the 16 joints; CoT = p_cost / (m g mean speed). "
+        "Mean ± standard deviation over seeds where there are several.",
+        "",
+    ]
     if "tracking_power" in summary["figures"]:
         lines += [f"![tracking and power]({rel}/{summary['figures']['tracking_power']})", ""]
-    lines += ["| method | task | MSE | p_cost [W] | legs [W] | wheels [W] | p_mech [W] | CoT | falls | gaits |",
-              "|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    lines += [
+        "| method | task | MSE | p_cost [W] | legs [W] | wheels [W] | p_mech [W] | CoT | falls | gaits |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for p, e in pres.items():
         for task in ("vx", "vy", "wz", "stand"):
             r = e["tracking"].get(task)
             if not r:
                 continue
             gaits = ", ".join(f"{g} {100 * v:.0f}%" for g, v in r["gait_usage"].items() if v >= 0.005)
-            lines.append(f"| {PAPER_NAMES[p]} | {task} | {_fmt(r['mse'], 4)} | {_fmt(r['mean_p_cost'])} | "
-                         f"{_fmt(r['mean_p_cost_legs'])} | {_fmt(r['mean_p_cost_wheels'])} | "
-                         f"{_fmt(r['mean_p_mech'])} | "
-                         f"{_fmt(r['cost_of_transport'], 2)} | {_fmt(r['falls'], 0)} | {gaits} |")  # fmt: skip
+            lines.append(
+                f"| {PAPER_NAMES[p]} | {task} | {_fmt(r['mse'], 4)} | {_fmt(r['mean_p_cost'])} | "
+                f"{_fmt(r['mean_p_cost_legs'])} | {_fmt(r['mean_p_cost_wheels'])} | "
+                f"{_fmt(r['mean_p_mech'])} | "
+                f"{_fmt(r['cost_of_transport'], 2)} | {_fmt(r['falls'], 0)} | {gaits} |"
+            )
         for task in ("vx", "stand"):  # the nominal gait with zero residual (stage nominal), the energy floor
             r = e.get("nominal", {}).get(task)
             if r:
-                lines.append(f"| {PAPER_NAMES[p]}, nominal gait alone | {task} | {_fmt(r['mse'], 4)} | "
-                             f"{_fmt(r['mean_p_cost'])} | {_fmt(r['mean_p_cost_legs'])} | "
-                             f"{_fmt(r['mean_p_cost_wheels'])} | {_fmt(r['mean_p_mech'])} | "
-                             f"{_fmt(r['cost_of_transport'], 2)} | {_fmt(r['falls'], 0)} | driving (forced), "
-                             "every action 0 |")  # fmt: skip
+                lines.append(
+                    f"| {PAPER_NAMES[p]}, nominal gait alone | {task} | {_fmt(r['mse'], 4)} | "
+                    f"{_fmt(r['mean_p_cost'])} | {_fmt(r['mean_p_cost_legs'])} | "
+                    f"{_fmt(r['mean_p_cost_wheels'])} | {_fmt(r['mean_p_mech'])} | "
+                    f"{_fmt(r['cost_of_transport'], 2)} | {_fmt(r['falls'], 0)} | driving (forced), "
+                    "every action 0 |"
+                )
     checks = _ordering_checks(summary)
     if checks:
-        lines += ["", "Against the paper's statements about Fig. 5 (the figure's bars are not in the source):", "",
-                  *checks]  # fmt: skip
+        lines += [
+            "",
+            "Against the paper's statements about Fig. 5 (the figure's bars are not in the source):",
+            "",
+            *checks,
+        ]
     if targets := _target_checks(summary, res_dir):
-        lines += ["", "Against the paper's headline (up to 35 % less energy than a fixed gait at comparable tracking, "
-                  "legged gaits for lateral motion) and the targets set for it (issue 22):", "", *targets]  # fmt: skip
+        lines += [
+            "",
+            "Against the paper's headline (up to 35 % less energy than a fixed gait at comparable tracking, "
+            "legged gaits for lateral motion) and the targets set for it (issue 22):",
+            "",
+            *targets,
+        ]
     # Table III.
-    lines += ["", "## Push recovery (the paper's Table III)", "",
-              "Random velocity impulses up to the maximum along the trunk's x and y; a robot **recovers** if its "
-              "trunk never touches the ground during the run. Each cell: this reproduction / the paper [%].", "",
-              "| max push | setting | " + " | ".join(PAPER_NAMES[p] for p in TABLE3_ORDER) + " |",
-              "|---|---|" + "---|" * len(TABLE3_ORDER)]  # fmt: skip
+    lines += [
+        "",
+        "## Push recovery (the paper's Table III)",
+        "",
+        "Random velocity impulses up to the maximum along the trunk's x and y; a robot **recovers** if its "
+        "trunk never touches the ground during the run. Each cell: this reproduction / the paper [%].",
+        "",
+        "| max push | setting | " + " | ".join(PAPER_NAMES[p] for p in TABLE3_ORDER) + " |",
+        "|---|---|" + "---|" * len(TABLE3_ORDER),
+    ]
     for lvl, rows in PAPER_TABLE3.items():
         for task, paper in rows.items():
             cells = []
@@ -495,56 +587,84 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     # Sim-to-sim.
     s2s = pres.get("ours", {}).get("sim2sim", {})
     if s2s:
-        lines += ["", "## Sim-to-sim (Ours)", "",
-                  "The same checkpoint, tasks, robots and seed under a second physics, minus the training physics "
-                  "(`train/evaluate.py --physics`): dt0.001 = the paper's 0.001 s x 20 substeps; authors = the "
-                  "authors' MuJoCo joint damping 0.01, armature 0.01, friction loss 0.2 and ground friction 0.6.", "",
-                  "| physics | task | MSE (train) | dMSE | p_cost (train) [W] | dp_cost [W] | dlegs [W] | "
-                  "dwheels [W] | dupright [%] |", "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+        lines += [
+            "",
+            "## Sim-to-sim (Ours)",
+            "",
+            "The same checkpoint, tasks, robots and seed under a second physics, minus the training physics "
+            "(`train/evaluate.py --physics`): dt0.001 = the paper's 0.001 s x 20 substeps; authors = the "
+            "authors' MuJoCo joint damping 0.01, armature 0.01, friction loss 0.2 and ground friction 0.6.",
+            "",
+            "| physics | task | MSE (train) | dMSE | p_cost (train) [W] | dp_cost [W] | dlegs [W] | "
+            "dwheels [W] | dupright [%] |",
+            "|---|---|---|---|---|---|---|---|---|",
+        ]
         base = s2s.get("train", {})
         for phys, tasks in s2s.items():
             if phys == "train":
                 continue
             for task, d in tasks.items():
                 b = base.get(task, {})
-                lines.append(f"| {phys} | {task} | {_fmt(b.get('mse'), 4)} | {_fmt(d['mse'], 4)} | "
-                             f"{_fmt(b.get('mean_p_cost'))} | {_fmt(d['mean_p_cost'])} | {_fmt(d['mean_p_cost_legs'])} "
-                             f"| {_fmt(d['mean_p_cost_wheels'])} | {_fmt(d['upright'], 1, 100.0)} |")  # fmt: skip
+                lines.append(
+                    f"| {phys} | {task} | {_fmt(b.get('mse'), 4)} | {_fmt(d['mse'], 4)} | "
+                    f"{_fmt(b.get('mean_p_cost'))} | {_fmt(d['mean_p_cost'])} | {_fmt(d['mean_p_cost_legs'])} "
+                    f"| {_fmt(d['mean_p_cost_wheels'])} | {_fmt(d['upright'], 1, 100.0)} |"
+                )
     # Timeline and energy map.
     if "timeline" in summary["figures"]:
-        lines += ["", "## Command sequence (the paper's Fig. 6)", "",
-                  "One robot: stand -> forward -> rotate -> lateral; front-right wheel height, requested and running "
-                  "gait, and power per joint group.", "",
-                  f"![timeline]({rel}/{summary['figures']['timeline']})"]  # fmt: skip
+        lines += [
+            "",
+            "## Command sequence (the paper's Fig. 6)",
+            "",
+            "One robot: stand -> forward -> rotate -> lateral; front-right wheel height, requested and running "
+            "gait, and power per joint group.",
+            "",
+            f"![timeline]({rel}/{summary['figures']['timeline']})",
+        ]
     if "energymap" in summary["figures"]:
         em = read_json(os.path.join(res_dir, summary["figures"]["energymap"].replace(".png", ".json")))
         agree = ""
         if em:
             bad, limit = em.get("cheapest_does_not_track", "?"), em.get("tracking_limit", "?")
-            agree = (f" The predicted winner matches the measured one in {100 * em['winner_agreement']:.0f} % of "
-                     f"the cells; in {bad} of {len(em['cells'])} cells the cheapest gait does not track its command "
-                     f"(squared velocity error above {limit}), so energy alone picks a gait that fails the "
-                     "task there.")  # fmt: skip
-        lines += ["", "## Gait energy map (Ours)", "",
-                  "Each gait forced on its own robot at every command of two planes, (v_x, v_y) and (v_x, w): "
-                  "measured p_cost (the predictor's estimate in brackets) and the winning gait." + agree, "",
-                  f"![energy map]({rel}/{summary['figures']['energymap']})"]  # fmt: skip
+            agree = (
+                f" The predicted winner matches the measured one in {100 * em['winner_agreement']:.0f} % of "
+                f"the cells; in {bad} of {len(em['cells'])} cells the cheapest gait does not track its command "
+                f"(squared velocity error above {limit}), so energy alone picks a gait that fails the "
+                "task there."
+            )
+        lines += [
+            "",
+            "## Gait energy map (Ours)",
+            "",
+            "Each gait forced on its own robot at every command of two planes, (v_x, v_y) and (v_x, w): "
+            "measured p_cost (the predictor's estimate in brackets) and the winning gait." + agree,
+            "",
+            f"![energy map]({rel}/{summary['figures']['energymap']})",
+        ]
     # Training.
     lines += ["", "## Training", "", "| method | seed | wall time | final mean episode reward |", "|---|---|---|---|"]
     for p, per_seed in summary["training"].items():
         for s, info in per_seed.items():
             if "in_progress" in info:
-                lines.append(f"| {PAPER_NAMES[p]} | {s} | in progress: iteration {info['in_progress']} of "
-                             f"{budget.iterations} | - |")  # fmt: skip
+                lines.append(
+                    f"| {PAPER_NAMES[p]} | {s} | in progress: iteration {info['in_progress']} of "
+                    f"{budget.iterations} | - |"
+                )
                 continue
             wt = info.get("wall_time_s")
             rw = info.get("final_mean_reward")
-            lines.append(f"| {PAPER_NAMES[p]} | {s} | {f'{wt / 60:.0f} min' if wt else '-'} | "
-                         f"{f'{rw:.1f}' if rw is not None else '-'} |")  # fmt: skip
+            lines.append(
+                f"| {PAPER_NAMES[p]} | {s} | {f'{wt / 60:.0f} min' if wt else '-'} | "
+                f"{f'{rw:.1f}' if rw is not None else '-'} |"
+            )
     train_s = sum(i.get("wall_time_s") or 0.0 for per in summary["training"].values() for i in per.values())
     eval_s = summary.get("evaluation_wall_time_s", 0.0)
-    lines += ["", f"Compute (sum of the stages' wall times on this machine): training {train_s / 60:.0f} min, "
-              f"evaluation {eval_s / 60:.0f} min.", ""]  # fmt: skip
+    lines += [
+        "",
+        f"Compute (sum of the stages' wall times on this machine): training {train_s / 60:.0f} min, "
+        f"evaluation {eval_s / 60:.0f} min.",
+        "",
+    ]
     return "\n".join(lines)
 
 

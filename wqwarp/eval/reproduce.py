@@ -83,16 +83,51 @@ class Budget:
 
 
 BUDGETS = {
-    "smoke": Budget(num_envs=8, iterations=2, temperature_iterations=2, eval_envs=4, eval_seconds=2.5, push_envs=4,
-                    push_seconds=2.5, push_interval=1.0, sim2sim_envs=4, map_seconds=0.5, map_grid=2,
-                    timeline_seconds=0.5, steps_per_env=8),
-    "cpu": Budget(num_envs=128, iterations=4883, temperature_iterations=2000, eval_envs=100, eval_seconds=20.0,
-                  push_envs=100, push_seconds=31.0, push_interval=7.5, sim2sim_envs=32, map_seconds=4.0,
-                  map_grid=5, timeline_seconds=4.0),
-    "gpu": Budget(num_envs=4096, iterations=4000, temperature_iterations=2000, eval_envs=1000, eval_seconds=60.0,
-                  push_envs=1000, push_seconds=60.0, push_interval=15.0, sim2sim_envs=1000, map_seconds=4.0,
-                  map_grid=5, timeline_seconds=4.0, device="cuda:0"),
-}  # fmt: skip
+    "smoke": Budget(
+        num_envs=8,
+        iterations=2,
+        temperature_iterations=2,
+        eval_envs=4,
+        eval_seconds=2.5,
+        push_envs=4,
+        push_seconds=2.5,
+        push_interval=1.0,
+        sim2sim_envs=4,
+        map_seconds=0.5,
+        map_grid=2,
+        timeline_seconds=0.5,
+        steps_per_env=8,
+    ),
+    "cpu": Budget(
+        num_envs=128,
+        iterations=4883,
+        temperature_iterations=2000,
+        eval_envs=100,
+        eval_seconds=20.0,
+        push_envs=100,
+        push_seconds=31.0,
+        push_interval=7.5,
+        sim2sim_envs=32,
+        map_seconds=4.0,
+        map_grid=5,
+        timeline_seconds=4.0,
+    ),
+    "gpu": Budget(
+        num_envs=4096,
+        iterations=4000,
+        temperature_iterations=2000,
+        eval_envs=1000,
+        eval_seconds=60.0,
+        push_envs=1000,
+        push_seconds=60.0,
+        push_interval=15.0,
+        sim2sim_envs=1000,
+        map_seconds=4.0,
+        map_grid=5,
+        timeline_seconds=4.0,
+        device="cuda:0",
+    ),
+}
 """``smoke`` checks the plumbing in minutes; ``cpu`` is the default main job's budget (4883 iterations x 128 robots x
 24 steps = 15.0 M samples per preset, 3.8 % of the paper's 4096 x 24 x 4000: where the omnidirectional skill held,
 docs/studies/omnidirectional), about 45 min of training per preset alone on 2 CPU cores (75 min for two side by
@@ -101,17 +136,35 @@ joins them); its evaluation uses 100 robots per task and 4 pushes per robot (eve
 "at least 100 robots and 4 pushes each" at half the paper's 60 s); ``gpu`` is the paper's scale."""
 
 EVAL_STAGES: dict[str, Callable[[Budget, str], dict]] = {
-    "tracking": lambda b, preset: {"preset": preset, "tasks": "stand,vx,vy,wz", "num_envs": b.eval_envs,
-                                   "seconds": b.eval_seconds},
-    "push": lambda b, preset: {"preset": preset, "num_envs": b.push_envs, "seconds": b.push_seconds,
-                               "push_interval": b.push_interval},
-    "sim2sim": lambda b, preset: {"preset": preset, "tasks": "vx,vy,wz", "num_envs": b.sim2sim_envs,
-                                  "seconds": b.eval_seconds},
+    "tracking": lambda b, preset: {
+        "preset": preset,
+        "tasks": "stand,vx,vy,wz",
+        "num_envs": b.eval_envs,
+        "seconds": b.eval_seconds,
+    },
+    "push": lambda b, preset: {
+        "preset": preset,
+        "num_envs": b.push_envs,
+        "seconds": b.push_seconds,
+        "push_interval": b.push_interval,
+    },
+    "sim2sim": lambda b, preset: {
+        "preset": preset,
+        "tasks": "vx,vy,wz",
+        "num_envs": b.sim2sim_envs,
+        "seconds": b.eval_seconds,
+    },
     "timeline": lambda b, preset: {"segments": fig6_segments(b.timeline_seconds), "robots": 1},
     "energymap": lambda b, preset: {"seconds": b.map_seconds, "grid": b.map_grid},
-    "nominal": lambda b, preset: {"preset": preset, "tasks": "stand,vx", "num_envs": b.eval_envs,
-                                  "seconds": b.eval_seconds, "force_gait": "driving", "zero_residual": True},
-}  # fmt: skip
+    "nominal": lambda b, preset: {
+        "preset": preset,
+        "tasks": "stand,vx",
+        "num_envs": b.eval_envs,
+        "seconds": b.eval_seconds,
+        "force_gait": "driving",
+        "zero_residual": True,
+    },
+}
 """Evaluation stage -> its options at a budget for a preset; the stage runs the protocol of the same name in
 ``wqwarp.eval.protocols.PROTOCOLS`` unless :data:`STAGE_PROTOCOL` names another."""
 STAGE_PROTOCOL = {"nominal": "tracking"}
@@ -145,7 +198,8 @@ def final_checkpoint(work: str, preset: str, seed: int, budget: Budget) -> str:
 def trained(work: str, preset: str, seed: int, budget: Budget) -> bool:
     """The training of ``preset`` / ``seed`` is done: its final checkpoint is there, or it was imported."""
     return os.path.isfile(final_checkpoint(work, preset, seed, budget)) or os.path.isfile(
-        os.path.join(run_dir(work, preset, seed), IMPORTED))  # fmt: skip
+        os.path.join(run_dir(work, preset, seed), IMPORTED)
+    )
 
 
 ETA_ITERATIONS = 10
@@ -211,8 +265,10 @@ def import_mismatch(src: str, stem: str, budget: Budget) -> str | None:
     former ``--profile select`` is its preset's task), and the checkpoint iteration every evaluation ran on (but a
     zero-residual record's: the nominal gait alone, which no checkpoint's weights change)."""
     cfg = read_json(os.path.join(src, f"{stem}_train_config.json")) or {}
-    have = {"num_envs": (cfg.get("env") or {}).get("sim", {}).get("num_envs"),
-            "num_steps_per_env": (cfg.get("train") or {}).get("num_steps_per_env")}  # fmt: skip
+    have = {
+        "num_envs": (cfg.get("env") or {}).get("sim", {}).get("num_envs"),
+        "num_steps_per_env": (cfg.get("train") or {}).get("num_steps_per_env"),
+    }
     want = {"num_envs": budget.num_envs, "num_steps_per_env": budget.steps_per_env}
     for key, value in want.items():
         if have[key] != value:
@@ -234,8 +290,7 @@ def import_mismatch(src: str, stem: str, budget: Budget) -> str | None:
     return None
 
 
-def import_finished(src: str, work: str, budget: Budget, presets: list[str],
-                    seeds: list[int]) -> list[str]:  # fmt: skip
+def import_finished(src: str, work: str, budget: Budget, presets: list[str], seeds: list[int]) -> list[str]:
     """Take the finished stages of an earlier reproduction from the results folder ``src`` that its report wrote
     (e.g. ``docs/results/cpu``) into ``work``, so that a reproduction longer than one machine session continues in
     the next without the checkpoints: a task and seed whose records match this budget and task
@@ -279,8 +334,9 @@ def import_finished(src: str, work: str, budget: Budget, presets: list[str],
                     else:
                         shutil.copyfile(f, dst)
                     taken.append(name)
-            write_text_atomic(os.path.join(d, IMPORTED),
-                              json.dumps({"from": os.path.abspath(src), "files": taken}, indent=2))  # fmt: skip
+            write_text_atomic(
+                os.path.join(d, IMPORTED), json.dumps({"from": os.path.abspath(src), "files": taken}, indent=2)
+            )
             lines.append(f"imported {stem} from {src}: {len(taken)} file(s)")
     return lines
 
@@ -292,9 +348,23 @@ def stage_train(args, budget: Budget, preset: str, seed: int) -> bool:
         return True
     d = run_dir(args.work, preset, seed)
     final = final_checkpoint(args.work, preset, seed, budget)
-    cmd = ["train/ppo_newton.py", preset, "--seed", str(seed), "--num-envs",
-           str(budget.num_envs), "--device", args.device, "--log-dir", d, "--no-export", "--num-steps-per-env",
-           str(budget.steps_per_env), "--torch-threads", str(args.torch_threads)]  # fmt: skip
+    cmd = [
+        "train/ppo_newton.py",
+        preset,
+        "--seed",
+        str(seed),
+        "--num-envs",
+        str(budget.num_envs),
+        "--device",
+        args.device,
+        "--log-dir",
+        d,
+        "--no-export",
+        "--num-steps-per-env",
+        str(budget.steps_per_env),
+        "--torch-threads",
+        str(args.torch_threads),
+    ]
     if TASKS[preset].preset.predictive:
         cmd += ["--temperature-iterations", str(budget.temperature_iterations)]
     cmd += ["--max-iterations", str(budget.iterations)]  # the total, also when resuming
@@ -304,8 +374,9 @@ def stage_train(args, budget: Budget, preset: str, seed: int) -> bool:
     cmd += ["--save-interval", str(max(1, min(50, budget.iterations // 4)))]
     t0, label, log = time.time(), f"train {preset} seed {seed}", d + ".log"
     with stage_log(log, label, " ".join(cmd), lambda: training_progress(d, budget.iterations)) as f:
-        code = subprocess.run([sys.executable, repo_path(cmd[0]), *cmd[1:]], stdout=f, stderr=subprocess.STDOUT,
-                              cwd=repo_path()).returncode  # fmt: skip
+        code = subprocess.run(
+            [sys.executable, repo_path(cmd[0]), *cmd[1:]], stdout=f, stderr=subprocess.STDOUT, cwd=repo_path()
+        ).returncode
     return _report_status(label, code == 0, log, t0, code) and os.path.isfile(final)
 
 
@@ -324,12 +395,21 @@ def stage_eval(args, budget: Budget, preset: str, seed: int, name: str) -> bool:
         return True
     ckpt = final_checkpoint(args.work, preset, seed, budget)
     if not os.path.isfile(ckpt):
-        imported = " (its training was imported without this stage)" if os.path.isfile(
-            os.path.join(run_dir(args.work, preset, seed), IMPORTED)) else ""  # fmt: skip
+        imported = (
+            " (its training was imported without this stage)"
+            if os.path.isfile(os.path.join(run_dir(args.work, preset, seed), IMPORTED))
+            else ""
+        )
         print(f"  skip {name} of {preset} seed {seed}: no trained checkpoint {ckpt}{imported}")
         return False
-    opts = make_options(proto, checkpoint=ckpt, device=args.device, seed=seed, **outputs,
-                        **EVAL_STAGES[name](budget, TASKS[preset].method))  # fmt: skip
+    opts = make_options(
+        proto,
+        checkpoint=ckpt,
+        device=args.device,
+        seed=seed,
+        **outputs,
+        **EVAL_STAGES[name](budget, TASKS[preset].method),
+    )
     t0, label, log = time.time(), f"{name} {preset} seed {seed}", out + ".log"
     command = equivalent_command(proto, opts)
     with stage_log(log, label, command) as f:

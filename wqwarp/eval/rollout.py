@@ -40,14 +40,18 @@ def evaluation_session(env) -> Iterator[None]:
     counter and the random generators are restored on exit (the robots' physical state is not: every rollout starts
     with :func:`start_rollout`, a reset)."""
     saved = {
-        "collect": env.collect_training_data, "max_episode_length": env.max_episode_length,
-        "push_interval_steps": env.push_interval_steps, "common_step_counter": env.common_step_counter,
-        "held": _clone(env.held_commands), "commands": env.commands.clone(), "rng": env.gen.get_state(),
+        "collect": env.collect_training_data,
+        "max_episode_length": env.max_episode_length,
+        "push_interval_steps": env.push_interval_steps,
+        "common_step_counter": env.common_step_counter,
+        "held": _clone(env.held_commands),
+        "commands": env.commands.clone(),
+        "rng": env.gen.get_state(),
         "selector": env.gait_selector.snapshot(),  # forced gait, switch memory, its random stream
         "gait_id": None if env.nominal is None else wp.to_torch(env.nominal.gait_id).clone(),
         # the phase residual of the last action: a reset keeps it, and the first observation shows it
         "phase_residual": None if env.nominal is None else wp.to_torch(env.nominal.phase_residual).clone(),
-    }  # fmt: skip
+    }
     try:
         yield
     finally:

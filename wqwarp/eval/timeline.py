@@ -46,8 +46,17 @@ def parse_segments(text: str) -> Segments:
     return out
 
 
-SERIES_KEYS = ("t", "command", "v", "p_cost", "p_cost_legs", "p_cost_wheels", "gait_requested", "gait_running",
-               "wheel_fr_height")  # fmt: skip
+SERIES_KEYS = (
+    "t",
+    "command",
+    "v",
+    "p_cost",
+    "p_cost_legs",
+    "p_cost_wheels",
+    "gait_requested",
+    "gait_running",
+    "wheel_fr_height",
+)
 """Time series of robot 0, one entry per policy step."""
 
 
@@ -97,11 +106,17 @@ def _run_timeline(runner, segments: Segments) -> tuple[list[dict], dict, torch.T
             series["wheel_fr_height"].append(round(float(tv["body_q"][0, fr_wheel, 2]), 4))  # wheel centre z [m]
             k += 1
         m = acc["count"]
-        summary.append({
-            "command": list(cmd), "seconds": sec, "mean_p_cost": acc["p"] / m, "mean_p_cost_legs": acc["legs"] / m,
-            "mean_p_cost_wheels": acc["wheels"] / m, "mean_sq_velocity_error": acc["err"] / m,
-            "gait_usage": {g: float(usage[i] / usage.sum()) for i, g in enumerate(names)},
-        })  # fmt: skip
+        summary.append(
+            {
+                "command": list(cmd),
+                "seconds": sec,
+                "mean_p_cost": acc["p"] / m,
+                "mean_p_cost_legs": acc["legs"] / m,
+                "mean_p_cost_wheels": acc["wheels"] / m,
+                "mean_sq_velocity_error": acc["err"] / m,
+                "gait_usage": {g: float(usage[i] / usage.sum()) for i, g in enumerate(names)},
+            }
+        )
     return summary, series, fell
 
 
@@ -131,21 +146,37 @@ def timeline(opts: TimelineOptions, log: TextIO) -> dict:
 
     opts.validate()
     t0 = time.time()
-    runner = make_policy_runner(opts.checkpoint, opts.preset, opts.robots, opts.device, seed=opts.seed,
-                                criterion=opts.criterion)  # fmt: skip
+    runner = make_policy_runner(
+        opts.checkpoint, opts.preset, opts.robots, opts.device, seed=opts.seed, criterion=opts.criterion
+    )
     summary, series, fell = run_timeline(runner, parse_segments(opts.segments))
-    print(f"{runner.preset} checkpoint (iteration {runner.iteration}), {opts.robots} robots; fell: {int(fell.sum())}",
-          file=log)  # fmt: skip
-    print(f"{'command':>18} {'p_cost':>7} {'legs':>6} {'wheels':>6} {'sq err':>7}  gaits (share of robot-steps)",
-          file=log)  # fmt: skip
+    print(
+        f"{runner.preset} checkpoint (iteration {runner.iteration}), {opts.robots} robots; fell: {int(fell.sum())}",
+        file=log,
+    )
+    print(
+        f"{'command':>18} {'p_cost':>7} {'legs':>6} {'wheels':>6} {'sq err':>7}  gaits (share of robot-steps)", file=log
+    )
     for s in summary:
         gaits = " ".join(f"{g} {100 * v:.0f}%" for g, v in s["gait_usage"].items() if v > 0)
-        print(f"{str(tuple(s['command'])):>18} {s['mean_p_cost']:7.1f} {s['mean_p_cost_legs']:6.1f} "
-              f"{s['mean_p_cost_wheels']:6.1f} {s['mean_sq_velocity_error']:7.3f}  {gaits}", file=log)  # fmt: skip
-    return {"checkpoint": opts.checkpoint, "preset": runner.preset, "iteration": runner.iteration,
-            "robots": opts.robots, "seed": opts.seed, "fell": int(fell.sum()), "segments": summary,
-            "gait_names": list(runner.env.gait_names), "series_robot0": series, "wall_time_s": time.time() - t0,
-            "config": to_dict(runner.env.cfg)}  # fmt: skip
+        print(
+            f"{str(tuple(s['command'])):>18} {s['mean_p_cost']:7.1f} {s['mean_p_cost_legs']:6.1f} "
+            f"{s['mean_p_cost_wheels']:6.1f} {s['mean_sq_velocity_error']:7.3f}  {gaits}",
+            file=log,
+        )
+    return {
+        "checkpoint": opts.checkpoint,
+        "preset": runner.preset,
+        "iteration": runner.iteration,
+        "robots": opts.robots,
+        "seed": opts.seed,
+        "fell": int(fell.sum()),
+        "segments": summary,
+        "gait_names": list(runner.env.gait_names),
+        "series_robot0": series,
+        "wall_time_s": time.time() - t0,
+        "config": to_dict(runner.env.cfg),
+    }
 
 
 def draw_timeline(out: dict, path: str, command: str | None = None) -> None:

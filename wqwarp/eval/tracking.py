@@ -36,9 +36,17 @@ def spread_commands(task: str, n: int, command_range: tuple[float, float] | None
 
 
 @torch.no_grad()
-def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: float = 0.0,
-             push_interval: float = 15.0, progress=None, command_range: tuple[float, float] | None = None,
-             forced_gait: int | None = None) -> EvalResult:  # fmt: skip
+def run_task(
+    runner,
+    task: str,
+    seconds: float,
+    settle: float = 2.0,
+    max_push: float = 0.0,
+    push_interval: float = 15.0,
+    progress=None,
+    command_range: tuple[float, float] | None = None,
+    forced_gait: int | None = None,
+) -> EvalResult:
     """Roll out ``runner.policy`` (``wqwarp.eval.loading.PolicyRunner``) on ``task`` for ``seconds`` [s], measuring
     after ``settle`` [s]; ``command_range`` replaces the task's range (e.g. ``PUSH_TASKS``); ``forced_gait``
     (predictive selection only) runs that gait instead of the selected one. The env is left as it was found
@@ -49,8 +57,9 @@ def run_task(runner, task: str, seconds: float, settle: float = 2.0, max_push: f
         return _run_task(runner, task, seconds, settle, max_push, push_interval, progress, command_range, forced_gait)
 
 
-def _run_task(runner, task, seconds, settle, max_push, push_interval, progress, command_range,
-              forced_gait) -> EvalResult:  # fmt: skip
+def _run_task(
+    runner, task, seconds, settle, max_push, push_interval, progress, command_range, forced_gait
+) -> EvalResult:
     env, sel = runner.env, runner.env.gait_selector
     axis, rng = TASKS[task]
     rng = tuple(command_range) if command_range is not None else rng
@@ -98,14 +107,22 @@ def _run_task(runner, task, seconds, settle, max_push, push_interval, progress, 
         predicted = {g: float(mean_pred[i]) for i, g in enumerate(sel.gait_names)}
         predicted_running = float((pred_run / c).mean())
     return EvalResult(
-        task=task, num_robots=n, seconds=seconds, **metrics.summary(env.sim.robot_mass),
-        upright=float((~fell).float().mean()), falls=falls, max_push=max_push, command_range=list(rng),
-        outside_training_range=outside, gait_usage=usage_from_scalars(gait) or None,
+        task=task,
+        num_robots=n,
+        seconds=seconds,
+        **metrics.summary(env.sim.robot_mass),
+        upright=float((~fell).float().mean()),
+        falls=falls,
+        max_push=max_push,
+        command_range=list(rng),
+        outside_training_range=outside,
+        gait_usage=usage_from_scalars(gait) or None,
         gait_switches_per_robot_minute=gait.get("Gait/switches_per_robot_minute", 0.0),
         falls_within_1s_of_switch=int(gait.get("Gait/falls_within_1s_of_switch", 0)),
-        predicted_power=predicted, predicted_power_running=predicted_running,
+        predicted_power=predicted,
+        predicted_power_running=predicted_running,
         fallen_commands=sorted(round(float(v), 4) for v in cmd[fell, axis].cpu()),
-    )  # fmt: skip
+    )
 
 
 SIM2SIM_CHOICES = tuple(k for k in PHYSICS_VARIANTS if k != "train")
@@ -115,31 +132,53 @@ SIM2SIM_CHOICES = tuple(k for k in PHYSICS_VARIANTS if k != "train")
 class TrackingOptions(SelectionOptions):
     """Options of the tracking, push and sim-to-sim protocols (``train/evaluate.py``)."""
 
-    preset: str | None = option(None, choices=tuple(PRESETS), help="label of the results; must be the method the "
-                                "checkpoint was trained as (default: the preset in the run's config.json). The "
-                                "environment is always built from the configuration stored in the checkpoint")
+    preset: str | None = option(
+        None,
+        choices=tuple(PRESETS),
+        help="label of the results; must be the method the "
+        "checkpoint was trained as (default: the preset in the run's config.json). The "
+        "environment is always built from the configuration stored in the checkpoint",
+    )
     tasks: str = option("vx,vy,wz", help=f"comma-separated tasks from {', '.join(TASKS)} (default vx,vy,wz)")
     num_envs: int | None = option(None, help="robots per task (default 100; the paper uses 1000)")
     seconds: float | None = option(None, help="length of each rollout [s] (default 20; 60 push)")
-    paper_scale: bool = option(False, help="the paper's scale: 1000 robots and 60 s per task (unless --num-envs / "
-                               "--seconds say otherwise); about 30x the default's cost")  # fmt: skip
+    paper_scale: bool = option(
+        False,
+        help="the paper's scale: 1000 robots and 60 s per task (unless --num-envs / "
+        "--seconds say otherwise); about 30x the default's cost",
+    )
     push: float = option(0.0, help="max push velocity [m/s]; 0 disables pushes (default)")
     push_interval: float = option(15.0, help="seconds between pushes (default 15, as the paper)")
     push_levels: str = option("0.5,0.7", help="push protocol: comma-separated max push velocities [m/s]")
-    physics: str = option("", help="sim-to-sim: comma-separated physics to evaluate after the training physics, from "
-                          f"{', '.join(SIM2SIM_CHOICES)}; deltas against the training physics are printed")  # fmt: skip
-    dt: float | None = option(None, help="physics step [s] (default: the training value 0.005); the "
-                              "policy keeps its 50 Hz step, e.g. --dt 0.001 checks that a power figure is not an "
-                              "artefact of the time step (the paper trains at 0.001)")  # fmt: skip
-    sample_gaits: bool = option(False, help="predictive presets: sample gaits from softmax(-p/tau) at the "
-                                "checkpoint's tau instead of the argmin (the default, tau -> 0)")  # fmt: skip
-    force_gait: str | None = option(None, help="predictive presets, diagnostics: run this gait of the checkpoint's "
-                                    "library instead of the selected one; the predictor's forecast for it is "
-                                    "reported beside the realised power")  # fmt: skip
-    zero_residual: bool = option(False, help="diagnostics, presets with a nominal gait: every action 0 instead of "
-                                 "the policy's (the nominal gait with no residual); with --tasks stand,vx "
-                                 "--force-gait driving it measures the floor the learned residual's power is "
-                                 "compared with (train/reproduce.py stage nominal)")  # fmt: skip
+    physics: str = option(
+        "",
+        help="sim-to-sim: comma-separated physics to evaluate after the training physics, from "
+        f"{', '.join(SIM2SIM_CHOICES)}; deltas against the training physics are printed",
+    )
+    dt: float | None = option(
+        None,
+        help="physics step [s] (default: the training value 0.005); the "
+        "policy keeps its 50 Hz step, e.g. --dt 0.001 checks that a power figure is not an "
+        "artefact of the time step (the paper trains at 0.001)",
+    )
+    sample_gaits: bool = option(
+        False,
+        help="predictive presets: sample gaits from softmax(-p/tau) at the "
+        "checkpoint's tau instead of the argmin (the default, tau -> 0)",
+    )
+    force_gait: str | None = option(
+        None,
+        help="predictive presets, diagnostics: run this gait of the checkpoint's "
+        "library instead of the selected one; the predictor's forecast for it is "
+        "reported beside the realised power",
+    )
+    zero_residual: bool = option(
+        False,
+        help="diagnostics, presets with a nominal gait: every action 0 instead of "
+        "the policy's (the nominal gait with no residual); with --tasks stand,vx "
+        "--force-gait driving it measures the floor the learned residual's power is "
+        "compared with (train/reproduce.py stage nominal)",
+    )
 
     def __post_init__(self) -> None:
         if self.seconds is None:
@@ -205,13 +244,22 @@ def zero_policy(env):
 def _load(opts: TrackingOptions, phys: str):
     from wqwarp.eval.loading import make_policy_runner
 
-    runner = make_policy_runner(opts.checkpoint, opts.preset, opts.num_envs, opts.device, dt=opts.dt,
-                                evaluation_selection="sample" if opts.sample_gaits else None, physics=phys,
-                                seed=opts.seed, criterion=opts.criterion)  # fmt: skip
+    runner = make_policy_runner(
+        opts.checkpoint,
+        opts.preset,
+        opts.num_envs,
+        opts.device,
+        dt=opts.dt,
+        evaluation_selection="sample" if opts.sample_gaits else None,
+        physics=phys,
+        seed=opts.seed,
+        criterion=opts.criterion,
+    )
     if opts.zero_residual:
         if not runner.env.residual_mode:
-            raise ValueError(f"--zero-residual needs a preset with a nominal gait (a residual policy), not "
-                             f"{runner.preset}")  # fmt: skip
+            raise ValueError(
+                f"--zero-residual needs a preset with a nominal gait (a residual policy), not {runner.preset}"
+            )
         runner = dataclasses.replace(runner, policy=zero_policy(runner.env))
     predictive = runner.env.gait_selector.name == "predictive"
     for name, wanted in (("--sample-gaits", opts.sample_gaits), ("--force-gait", opts.force_gait)):
@@ -242,32 +290,55 @@ def _evaluate(opts: TrackingOptions, log: TextIO, protocol: str) -> dict:
         _print_header(log, runner, opts, phys)
         results = []
         for max_push, t in runs:
-            r = run_task(runner, t, opts.seconds, max_push=max_push, push_interval=opts.push_interval,
-                         progress=_progress(log, t), command_range=PUSH_TASKS[t][1] if pushing else None,
-                         forced_gait=forced)  # fmt: skip
+            r = run_task(
+                runner,
+                t,
+                opts.seconds,
+                max_push=max_push,
+                push_interval=opts.push_interval,
+                progress=_progress(log, t),
+                command_range=PUSH_TASKS[t][1] if pushing else None,
+                forced_gait=forced,
+            )
             results.append(dataclasses.asdict(r))
             _print_row(log, r, f"{t}@{max_push:g}" if pushing else t)
-        by_physics[phys] = {"physics": phys, "overrides": physics_variant(phys).overrides(), "config": to_dict(cfg),
-                            "wall_time_s": time.time() - t_phys, "results": results}  # fmt: skip
+        by_physics[phys] = {
+            "physics": phys,
+            "overrides": physics_variant(phys).overrides(),
+            "config": to_dict(cfg),
+            "wall_time_s": time.time() - t_phys,
+            "results": results,
+        }
         preset, iteration = runner.preset, runner.iteration
         del runner
     results = by_physics["train"]["results"]
-    deltas = {p: [physics_delta(a, b) for a, b in zip(results, by_physics[p]["results"], strict=True)]
-              for p in opts.physics_list()}  # fmt: skip
+    deltas = {
+        p: [physics_delta(a, b) for a, b in zip(results, by_physics[p]["results"], strict=True)]
+        for p in opts.physics_list()
+    }
     for phys, d in deltas.items():
         _print_deltas(log, phys, d)
     if pushing:
         _print_table3(log, results, tasks, opts.levels())
     train = by_physics["train"]
     return {
-        "checkpoint": opts.checkpoint, "preset": preset, "iteration": iteration, "protocol": protocol,
+        "checkpoint": opts.checkpoint,
+        "preset": preset,
+        "iteration": iteration,
+        "protocol": protocol,
         "forced_gait": opts.force_gait,
-        "zero_residual": opts.zero_residual, "seed": opts.seed, "num_envs": opts.num_envs, "seconds": opts.seconds,
-        "push_interval": opts.push_interval, "dt": train["config"]["sim"]["dt"],
-        "decimation": train["config"]["sim"]["decimation"], "wall_time_s": time.time() - t_start,
-        "config": train["config"], "results": results,
+        "zero_residual": opts.zero_residual,
+        "seed": opts.seed,
+        "num_envs": opts.num_envs,
+        "seconds": opts.seconds,
+        "push_interval": opts.push_interval,
+        "dt": train["config"]["sim"]["dt"],
+        "decimation": train["config"]["sim"]["decimation"],
+        "wall_time_s": time.time() - t_start,
+        "config": train["config"],
+        "results": results,
         "sim2sim": {p: {**by_physics[p], "deltas": deltas[p]} for p in opts.physics_list()},
-    }  # fmt: skip
+    }
 
 
 def _progress(log: TextIO, task: str):
@@ -282,29 +353,41 @@ def _print_header(log: TextIO, runner, opts: TrackingOptions, phys: str) -> None
     cfg = runner.env.cfg
     scale = "" if opts.num_envs >= 1000 else " (the paper: 1000 robots; --paper-scale)"
     what = "zero residual (the nominal gait alone), configuration of the " if opts.zero_residual else ""
-    print(f"\n{runner.preset} {what}checkpoint (iteration {runner.iteration}), {opts.num_envs} robots{scale}, "
-          f"{opts.seconds:g} s, physics {phys}: dt {cfg.sim.dt:g} s x {cfg.sim.decimation}, joints "
-          f"{cfg.sim.joint_model}, friction {cfg.domain_rand.nominal_friction:g}, seed {opts.seed}", file=log)
-    print(f"{'task':>9} {'MSE':>8} {'|err|':>8} {'p_cost [W]':>11} {'legs':>7} {'wheels':>7} {'CoT':>6} "
-          f"{'upright':>8}  gaits", file=log)  # fmt: skip
+    print(
+        f"\n{runner.preset} {what}checkpoint (iteration {runner.iteration}), {opts.num_envs} robots{scale}, "
+        f"{opts.seconds:g} s, physics {phys}: dt {cfg.sim.dt:g} s x {cfg.sim.decimation}, joints "
+        f"{cfg.sim.joint_model}, friction {cfg.domain_rand.nominal_friction:g}, seed {opts.seed}",
+        file=log,
+    )
+    print(
+        f"{'task':>9} {'MSE':>8} {'|err|':>8} {'p_cost [W]':>11} {'legs':>7} {'wheels':>7} {'CoT':>6} "
+        f"{'upright':>8}  gaits",
+        file=log,
+    )
 
 
 def _print_row(log: TextIO, r: EvalResult, label: str) -> None:
     cot = f"{r.cost_of_transport:6.2f}" if r.cost_of_transport is not None else f"{'-':>6}"
-    print(f"\r{label:>9} {r.mse:8.4f} {r.mean_abs_error:8.3f} {r.mean_p_cost:11.1f} {r.mean_p_cost_legs:7.1f} "
-          f"{r.mean_p_cost_wheels:7.1f} {cot} {100 * r.upright:7.1f}%  "
-          + " ".join(f"{g} {100 * v:.0f}%" for g, v in (r.gait_usage or {}).items() if v > 0)
-          + ("  (commands outside the training range)" if r.outside_training_range else ""), file=log)  # fmt: skip
+    print(
+        f"\r{label:>9} {r.mse:8.4f} {r.mean_abs_error:8.3f} {r.mean_p_cost:11.1f} {r.mean_p_cost_legs:7.1f} "
+        f"{r.mean_p_cost_wheels:7.1f} {cot} {100 * r.upright:7.1f}%  "
+        + " ".join(f"{g} {100 * v:.0f}%" for g, v in (r.gait_usage or {}).items() if v > 0)
+        + ("  (commands outside the training range)" if r.outside_training_range else ""),
+        file=log,
+    )
 
 
 def _print_deltas(log: TextIO, phys: str, deltas: list[dict]) -> None:
     print(f"\nsim-to-sim: {phys} minus train", file=log)
-    print(f"{'task':>9} {'dMSE':>8} {'dp_cost [W]':>12} {'(%)':>7} {'dlegs':>7} {'dwheels':>8} {'dupright':>9}",
-          file=log)  # fmt: skip
+    print(
+        f"{'task':>9} {'dMSE':>8} {'dp_cost [W]':>12} {'(%)':>7} {'dlegs':>7} {'dwheels':>8} {'dupright':>9}", file=log
+    )
     for d in deltas:
-        print(f"{d['label']:>9} {d['mse']:8.4f} {d['mean_p_cost']:12.1f} {d['mean_p_cost_rel']:7.1%} "
-              f"{d['mean_p_cost_legs']:7.1f} {d['mean_p_cost_wheels']:8.1f} {100 * d['upright']:8.1f}%",
-              file=log)  # fmt: skip
+        print(
+            f"{d['label']:>9} {d['mse']:8.4f} {d['mean_p_cost']:12.1f} {d['mean_p_cost_rel']:7.1%} "
+            f"{d['mean_p_cost_legs']:7.1f} {d['mean_p_cost_wheels']:8.1f} {100 * d['upright']:8.1f}%",
+            file=log,
+        )
 
 
 def _print_table3(log: TextIO, results: list[dict], tasks: list[str], levels: list[float]) -> None:
@@ -317,5 +400,7 @@ def _print_table3(log: TextIO, results: list[dict], tasks: list[str], levels: li
         if r.get("fallen_commands"):
             lo, hi = r["command_range"]
             fallen = ", ".join(f"{v:g}" for v in r["fallen_commands"])
-            print(f"{r['task']} at {r['max_push']:g} m/s: fell at commands {fallen} (task range [{lo:g}, {hi:g}])",
-                  file=log)  # fmt: skip
+            print(
+                f"{r['task']} at {r['max_push']:g} m/s: fell at commands {fallen} (task range [{lo:g}, {hi:g}])",
+                file=log,
+            )

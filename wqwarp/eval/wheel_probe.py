@@ -20,8 +20,16 @@ def learned_std(policy, obs):
         return dist.std.detach().clone()
 
 
-def rollout(runner, vx: float, seconds: float, settle: float, zero: tuple[str, ...] = (), sample: bool = False,
-            seed: int = 0, wheels_fixed: list[float] | None = None) -> dict:
+def rollout(
+    runner,
+    vx: float,
+    seconds: float,
+    settle: float,
+    zero: tuple[str, ...] = (),
+    sample: bool = False,
+    seed: int = 0,
+    wheels_fixed: list[float] | None = None,
+) -> dict:
     """One rollout at the held command ``vx``; the action groups ``zero`` (``wqwarp.rl.observations.action_groups``)
     set to 0 (with ``sample`` the Gaussian noise around them stays); ``sample`` draws the actions from the
     policy's distribution (torch seeded with ``seed``, so two rollouts draw the same noise while their states
@@ -73,8 +81,9 @@ def rollout(runner, vx: float, seconds: float, settle: float, zero: tuple[str, .
     out = {k: np.round(np.mean(np.asarray(v), axis=0), 4).tolist() for k, v in acc.items()}
     per_second = max(1, int(round(1.0 / env.dt)))  # the wheels' p_cost in 1 s windows after settling
     wheels_p = np.asarray(acc["p_cost_wheels"])
-    out["p_cost_wheels_by_second"] = [round(float(wheels_p[i:i + per_second].mean()), 3)
-                                      for i in range(0, len(wheels_p), per_second)]  # fmt: skip
+    out["p_cost_wheels_by_second"] = [
+        round(float(wheels_p[i : i + per_second].mean()), 3) for i in range(0, len(wheels_p), per_second)
+    ]
     per_s = terms / max(1, len(acc["vx"])) / env.dt  # w_k r_k dt per step -> per second
     out["reward_per_s"] = {name: round(float(per_s[k]), 4) for k, name in enumerate(env.reward_names)}
     out["reward_per_s"]["total"] = round(float(per_s.sum()), 4)

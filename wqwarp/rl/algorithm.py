@@ -71,8 +71,10 @@ class EstimatorLearner:
         """The estimator has no schedule."""
 
     def state_dict(self) -> dict:
-        return {f"{self.key}_state_dict": self.trainer.estimator.state_dict(),
-                f"{self.key}_optimizer_state_dict": self.trainer.optimizer.state_dict()}  # fmt: skip
+        return {
+            f"{self.key}_state_dict": self.trainer.estimator.state_dict(),
+            f"{self.key}_optimizer_state_dict": self.trainer.optimizer.state_dict(),
+        }
 
     def load_state_dict(self, saved: dict, strict: bool, rng: bool) -> None:
         """Network and optimizer from :meth:`state_dict`'s entries of ``saved`` (no random stream of its own)."""
@@ -116,8 +118,11 @@ class RewardRampLearner:
         mean = sum(self.errors) / len(self.errors)
         if mean < r.ramp_gate_vy_error:
             self.opened_at = self.iteration + 1
-            print(f"reward ramp: gate opened for iteration {self.opened_at} (mean v_y error of the last "
-                  f"{len(self.errors)} iterations {mean:.3f} < {r.ramp_gate_vy_error:g} m/s)", flush=True)
+            print(
+                f"reward ramp: gate opened for iteration {self.opened_at} (mean v_y error of the last "
+                f"{len(self.errors)} iterations {mean:.3f} < {r.ramp_gate_vy_error:g} m/s)",
+                flush=True,
+            )
         return {}
 
     def set_iteration(self, iteration: int) -> None:
@@ -176,14 +181,18 @@ class GaitSelectorLearner:
         state = saved.get(f"{self.key}_state_dict")
         if state is None:
             if isinstance(self.selector, PredictiveGaitSelector):
-                raise ValueError("the checkpoint holds no power predictor; it cannot drive the predictive gait "
-                                 "selection")  # fmt: skip
+                raise ValueError(
+                    "the checkpoint holds no power predictor; it cannot drive the predictive gait selection"
+                )
             return
         self.selector.load_state_dict(state if rng else {k: v for k, v in state.items() if k != "rng"})
 
 
-LEGACY_KEYS = {"estimator_state_dict": "estimator", "estimator_optimizer_state_dict": "estimator_optimizer",
-               "gait_selector_state_dict": "gait_selector"}  # fmt: skip
+LEGACY_KEYS = {
+    "estimator_state_dict": "estimator",
+    "estimator_optimizer_state_dict": "estimator_optimizer",
+    "gait_selector_state_dict": "gait_selector",
+}
 """Checkpoint entry -> where checkpoints of format 1 kept it (in ``infos``)."""
 
 
@@ -195,8 +204,9 @@ class WqPPO(PPO):
         - Schulman et al. "Proximal policy optimization algorithms." arXiv preprint arXiv:1707.06347 (2017).
     """
 
-    def __init__(self, *args, update_threads: int | None = None, init_std_groups: list[float] | None = None,
-                 **kwargs) -> None:  # fmt: skip
+    def __init__(
+        self, *args, update_threads: int | None = None, init_std_groups: list[float] | None = None, **kwargs
+    ) -> None:
         """``init_std_groups``: the initial action std of each action group (``TrainConfig.init_noise_std_groups``,
         groups of ``wqwarp.rl.observations.action_groups``), written into the actor's std parameter."""
         super().__init__(*args, **kwargs)
@@ -229,8 +239,9 @@ class WqPPO(PPO):
             raise ValueError("init_noise_std_groups needs a Gaussian distribution with a state-independent std")
         groups = action_groups(target.shape[-1])
         if len(stds) != len(groups):
-            raise ValueError(f"init_noise_std_groups: {len(stds)} values for the {len(groups)} action groups "
-                             f"({', '.join(groups)})")  # fmt: skip
+            raise ValueError(
+                f"init_noise_std_groups: {len(stds)} values for the {len(groups)} action groups ({', '.join(groups)})"
+            )
         with torch.no_grad():
             for value, cols in zip(stds, groups.values(), strict=True):
                 target[cols] = float(value) if param is not None else math.log(float(value))
@@ -247,12 +258,17 @@ class WqPPO(PPO):
     def attach(self, env: WheeledGo1Env) -> None:
         """Take the env's estimator trainer, gait selector and reward ramp as the extensions (in that order), and
         the robots that act with the mean (:attr:`mean_actors`)."""
-        self.learners = [EstimatorLearner(env.estimator_trainer), GaitSelectorLearner(env.gait_selector),
-                         RewardRampLearner(env)]  # fmt: skip
+        self.learners = [
+            EstimatorLearner(env.estimator_trainer),
+            GaitSelectorLearner(env.gait_selector),
+            RewardRampLearner(env),
+        ]
         mask = env.gait_selector.label_robots
         if mask is not None and self.normalize_advantage_per_mini_batch:
-            raise ValueError("predictor.label_source = mean needs normalize_advantage_per_mini_batch off (the "
-                             "mean-acting robots' zero advantages are taken out of the whole-rollout normalisation)")
+            raise ValueError(
+                "predictor.label_source = mean needs normalize_advantage_per_mini_batch off (the "
+                "mean-acting robots' zero advantages are taken out of the whole-rollout normalisation)"
+            )
         self.mean_actors = None if mask is None else mask.to(self.device)
 
     def act(self, obs: TensorDict) -> torch.Tensor:
@@ -325,8 +341,17 @@ class WqPPO(PPO):
         """rsl-rl's load, then the extensions' (``load_cfg`` keys ``estimator`` and ``gait_selector``; ``rng``
         restores the gait selector's random stream). Checkpoints of format 1 kept the extensions in ``infos``."""
         if load_cfg is None:
-            load_cfg = {"actor": True, "critic": True, "optimizer": True, "iteration": True, "rnd": True,
-                        "estimator": True, "gait_selector": True, "reward_ramp": True, "rng": True}  # fmt: skip
+            load_cfg = {
+                "actor": True,
+                "critic": True,
+                "optimizer": True,
+                "iteration": True,
+                "rnd": True,
+                "estimator": True,
+                "gait_selector": True,
+                "reward_ramp": True,
+                "rng": True,
+            }
         infos = loaded_dict.get("infos") or {}
         saved = {k: loaded_dict[k] if k in loaded_dict else infos.get(old) for k, old in LEGACY_KEYS.items()}
         saved = {k: v for k, v in saved.items() if v is not None}

@@ -20,8 +20,14 @@ def uniform(gen: torch.Generator, rng: tuple[float, float], shape, device) -> to
 
 def sample_commands(cfg: CommandConfig, k: int, gen: torch.Generator, device) -> torch.Tensor:
     """(k, 3) commands v_x, v_y [m/s], w_z [rad/s] in the base frame."""
-    cmd = torch.stack([uniform(gen, cfg.vx_range, (k,), device), uniform(gen, cfg.vy_range, (k,), device),
-                       uniform(gen, cfg.wz_range, (k,), device)], dim=1)  # fmt: skip
+    cmd = torch.stack(
+        [
+            uniform(gen, cfg.vx_range, (k,), device),
+            uniform(gen, cfg.vy_range, (k,), device),
+            uniform(gen, cfg.wz_range, (k,), device),
+        ],
+        dim=1,
+    )
     u = torch.rand(k, generator=gen, device=device)
     single = u < cfg.single_axis_prob
     w = cfg.single_axis_weights

@@ -2,9 +2,9 @@
 ``wqwarp.rl.presets``).
 
 Every field carries its unit and source, in the docstring under it (which is also its ``--help`` on the command
-line through tyro, ``wqwarp.cli.train_args``). Code reads behaviour fields (``action.use_nominal_legs``, ``gait.selection``,
-...), never a preset's name. Choices are ``Literal`` types, checked when set; each section checks its numbers when
-built (``wqwarp.utils.checked_config``). No physics engine and no torch are imported here.
+line through tyro, ``wqwarp.cli.train_args``). Code reads behaviour fields (``action.use_nominal_legs``,
+``gait.selection``, ...), never a preset's name. Choices are ``Literal`` types, checked when set; each section checks
+its numbers when built (``wqwarp.utils.checked_config``). No physics engine and no torch are imported here.
 """
 
 from __future__ import annotations
@@ -42,68 +42,71 @@ Symmetry = Literal["none", "augmentation", "mirror_loss", "both"]
 """Use of the left-right mirror in PPO (:attr:`TrainConfig.symmetry`, rsl-rl's ``symmetry_cfg``)."""
 
 
-def _reward_weights(self, terms: tuple[RewardTerm, ...] = TERMS) -> list[float]:
-    """w_k of each of ``terms`` in order: the field of that name, or the term's default weight for a term defined
-    outside the package (not a field)."""
-    return [float(getattr(self, t.name, t.weight)) for t in terms]
+def _term_field(t: RewardTerm) -> tuple[str, object, dataclasses.Field]:
+    """The weight field of reward term ``t``: its docstring as a PEP 727 ``Doc`` (the option's help on the command
+    line), its migration for checkpoints written before the term existed."""
+    meta = migrate(t.migration.value, t.migration.why) if t.migration else {}
+    return t.name, Annotated[float, Doc(t.doc)], field(default=t.weight, metadata={**meta, "doc": t.doc})
 
 
-def _ramp_scale(self, iteration: int, start: int | None = None) -> float:
-    """Factor on the weights of ``ramp_terms`` at PPO ``iteration``: 0 before ``start`` (default ``ramp_start``;
-    with ``ramp_gate_vy_error`` the iteration the gate opened), then (iteration - start) / ramp_iterations up to 1
-    (a step to 1 at ``start`` when ramp_iterations is 0)."""
-    done = int(iteration) - (self.ramp_start if start is None else int(start))
-    if self.ramp_iterations <= 0:
-        return 1.0 if done >= 0 else 0.0
-    return min(1.0, max(0.0, done / self.ramp_iterations))
-
-
-def _documented(fields: list[tuple[str, type, dataclasses.Field]]) -> list[tuple[str, object, dataclasses.Field]]:
-    """Each generated field's type as ``Annotated[type, Doc(its metadata's doc)]``: the PEP 727 form of a field
-    docstring, which the command line (tyro) shows as the option's help; type hints without extras are unchanged."""
-    return [(n, Annotated[t, Doc(f.metadata["doc"])] if "doc" in f.metadata else t, f) for n, t, f in fields]
-
-
-RewardConfig = dataclasses.make_dataclass(
-    "RewardConfig",
-    _documented([(t.name, float, field(default=t.weight, metadata=migrate(t.migration.value, t.migration.why, doc=t.doc)
-                           if t.migration else {"doc": t.doc})) for t in TERMS]
-    + [("tracking_sigma", float, field(default=4.0, metadata={"doc": "The 4 in exp(-4 err^2) [1/(m/s)^2]."})),
-       ("only_positive", bool, field(default=False, metadata=migrate(
-           False, "the plain sum, the only reward before the setting existed", doc=(
-           "Clip each step's summed reward at zero (legged_gym's only_positive_rewards, on by default there): the "
-           "penalties cannot make a step worse than doing nothing rewarded. The paper does not say; off keeps the "
-           "plain sum.")))),
-       ("soft_joint_limit", float, field(default=0.9, metadata=since_default(
-           "the default; read only by the joint-limit term, off before it existed", doc=(
-           "Width of the soft joint range of the joint_limits term as a fraction of each leg joint's range, about "
-           "its centre (legged_gym's soft_dof_pos_limit).")))),
-       ("ramp_terms", tuple[str, ...], field(default=(), metadata=migrate(
-           [], "no reward ramp before the setting existed", doc=(
-           "Terms whose weights are annealed in during training (a curriculum beyond the paper, which does not "
-           "say; e.g. p_cost, so that tracking is learned before the energy term counts): weight 0 before PPO "
-           "iteration ramp_start, then linear to the full weight over ramp_iterations. Evaluation and a policy "
-           "outside training see the full weights. Empty: no ramp.")))),
-       ("ramp_start", int, field(default=0, metadata=since_default("its default (unused without ramp terms)", doc=(
-           "PPO iteration at which the ramp_terms start counting.")))),
-       ("ramp_iterations", int, field(default=0, metadata=since_default("its default (unused without ramp terms)", doc=(
-           "PPO iterations from ramp_start to the full weight of the ramp_terms (0: a step at ramp_start).")))),
-       ("ramp_gate_vy_error", float, field(default=0.0, metadata=migrate(
-           0.0, "the ramp started at ramp_start before the gate existed", doc=(
-           "Beyond the paper: with a value > 0 the ramp waits for the lateral skill. It starts at the first PPO "
-           "iteration >= ramp_start at which the training's mean |v_y error| (Metrics/vy_error, every robot) over "
-           "the last ramp_gate_window iterations is below this value [m/s] (0.15: the studies' skill threshold); "
-           "the opening iteration is saved in the checkpoint. 0: the ramp starts at ramp_start. Under torchrun each "
-           "rank gates on its own robots.")))),
-       ("ramp_gate_window", int, field(default=100, metadata=since_default(
-           "its default (unused without the gate)", doc=(
-           "PPO iterations averaged by the ramp_gate_vy_error gate."))))]),
-    namespace={"weights": _reward_weights, "ramp_scale": _ramp_scale, "__module__": __name__},
+RewardWeights = dataclasses.make_dataclass(
+    "RewardWeights", [_term_field(t) for t in TERMS], namespace={"__module__": __name__}
 )
-RewardConfig.__doc__ = """Weights of the paper's Table II (and of the terms beyond it, 0 by default), one field per
-term of the registry ``wqwarp.rl.rewards`` (the fields are derived from it). Each term is multiplied by its weight and
-by the policy step dt (legged_gym convention), summed per step; a zero weight skips the term. Definitions in
-``wqwarp.kernels.rewards``."""
+RewardWeights.__doc__ = """One weight per term of the reward registry ``wqwarp.rl.rewards`` (the fields are derived
+from it): the base of :class:`RewardConfig`."""
+
+
+@dataclass
+class RewardConfig(RewardWeights):
+    """Weights of the paper's Table II (and of the terms beyond it, 0 by default), one field per term of the registry
+    ``wqwarp.rl.rewards`` (:class:`RewardWeights`, derived from it), and the reward's other settings. Each term is
+    multiplied by its weight and by the policy step dt (legged_gym convention), summed per step; a zero weight skips
+    the term. Definitions in ``wqwarp.kernels.rewards``."""
+
+    tracking_sigma: float = 4.0
+    """The 4 in exp(-4 err^2) [1/(m/s)^2]."""
+    only_positive: bool = field(
+        default=False, metadata=migrate(False, "the plain sum, the only reward before the setting existed")
+    )
+    """Clip each step's summed reward at zero (legged_gym's only_positive_rewards, on by default there): the penalties
+    cannot make a step worse than doing nothing rewarded. The paper does not say; off keeps the plain sum."""
+    soft_joint_limit: float = field(
+        default=0.9, metadata=since_default("the default; read only by the joint-limit term, off before it existed")
+    )
+    """Width of the soft joint range of the joint_limits term as a fraction of each leg joint's range, about its
+    centre (legged_gym's soft_dof_pos_limit)."""
+    ramp_terms: tuple[str, ...] = field(default=(), metadata=migrate([], "no reward ramp before the setting existed"))
+    """Terms whose weights are annealed in during training (a curriculum beyond the paper, which does not say; e.g.
+    p_cost, so that tracking is learned before the energy term counts): weight 0 before PPO iteration ramp_start,
+    then linear to the full weight over ramp_iterations. Evaluation and a policy outside training see the full
+    weights. Empty: no ramp."""
+    ramp_start: int = field(default=0, metadata=since_default("its default (unused without ramp terms)"))
+    """PPO iteration at which the ramp_terms start counting."""
+    ramp_iterations: int = field(default=0, metadata=since_default("its default (unused without ramp terms)"))
+    """PPO iterations from ramp_start to the full weight of the ramp_terms (0: a step at ramp_start)."""
+    ramp_gate_vy_error: float = field(
+        default=0.0, metadata=migrate(0.0, "the ramp started at ramp_start before the gate existed")
+    )
+    """Beyond the paper: with a value > 0 the ramp waits for the lateral skill. It starts at the first PPO iteration
+    >= ramp_start at which the training's mean |v_y error| (Metrics/vy_error, every robot) over the last
+    ramp_gate_window iterations is below this value [m/s] (0.15: the studies' skill threshold); the opening iteration
+    is saved in the checkpoint. 0: the ramp starts at ramp_start. Under torchrun each rank gates on its own robots."""
+    ramp_gate_window: int = field(default=100, metadata=since_default("its default (unused without the gate)"))
+    """PPO iterations averaged by the ramp_gate_vy_error gate."""
+
+    def weights(self, terms: tuple[RewardTerm, ...] = TERMS) -> list[float]:
+        """w_k of each of ``terms`` in order: the field of that name, or the term's default weight for a term defined
+        outside the package (not a field)."""
+        return [float(getattr(self, t.name, t.weight)) for t in terms]
+
+    def ramp_scale(self, iteration: int, start: int | None = None) -> float:
+        """Factor on the weights of ``ramp_terms`` at PPO ``iteration``: 0 before ``start`` (default ``ramp_start``;
+        with ``ramp_gate_vy_error`` the iteration the gate opened), then (iteration - start) / ramp_iterations up to 1
+        (a step to 1 at ``start`` when ramp_iterations is 0)."""
+        done = int(iteration) - (self.ramp_start if start is None else int(start))
+        if self.ramp_iterations <= 0:
+            return 1.0 if done >= 0 else 0.0
+        return min(1.0, max(0.0, done / self.ramp_iterations))
 
 
 @dataclass
@@ -136,8 +139,11 @@ class CommandConfig(CheckedConfig):
         check_ranges(self, "vx_range", "vy_range", "wz_range")
         check_positive(self, "resampling_time")
         w = self.single_axis_weights
-        require(len(w) == 3 and min(w) >= 0.0 and sum(w) > 0.0, "CommandConfig.single_axis_weights",
-                f"needs three non-negative odds with a positive sum, got {w}")  # fmt: skip
+        require(
+            len(w) == 3 and min(w) >= 0.0 and sum(w) > 0.0,
+            "CommandConfig.single_axis_weights",
+            f"needs three non-negative odds with a positive sum, got {w}",
+        )
         for n in ("single_axis_prob", "zero_prob"):
             require(0.0 <= getattr(self, n) <= 1.0, f"CommandConfig.{n}", f"must be in [0, 1], got {getattr(self, n)}")
 
@@ -190,10 +196,16 @@ class GaitConfig(CheckedConfig):
     def check(self) -> None:
         check_positive(self, "lateral_gain", "lateral_limit", strict=False)
         names = [g.name for g in self.library]
-        require(bool(names) and len(set(names)) == len(names), "GaitConfig.library",
-                f"needs at least one gait and unique names, got {names}")  # fmt: skip
-        require(self.fixed_gait in names, "GaitConfig.fixed_gait",
-                f"{self.fixed_gait!r} is not in the library ({', '.join(names)})")  # fmt: skip
+        require(
+            bool(names) and len(set(names)) == len(names),
+            "GaitConfig.library",
+            f"needs at least one gait and unique names, got {names}",
+        )
+        require(
+            self.fixed_gait in names,
+            "GaitConfig.fixed_gait",
+            f"{self.fixed_gait!r} is not in the library ({', '.join(names)})",
+        )
 
     def with_tuned(self, path: str, name: str | None = None) -> GaitConfig:
         """A copy whose library holds the gait tuned on the differentiable path (``tools/optimize_gait.py`` JSON,
@@ -324,16 +336,41 @@ class PredictorConfig(CheckedConfig):
         return self.criterion in ("feasible", "kinematic_feasible")
 
     def check(self) -> None:
-        require(0.0 < self.label_fraction <= 0.5, "PredictorConfig.label_fraction",
-                f"must be in (0, 0.5] (the other robots train the policy), got {self.label_fraction}")  # fmt: skip
-        check_positive(self, "horizon_s", "decision_interval_s", "temperature_start", "temperature_end",
-                       "learning_rate", "batch_size", "buffer_size")  # fmt: skip
-        check_positive(self, "temperature_iterations", "updates_per_iteration", "feasible_margin",
-                       "feasible_penalty", "kinematic_lateral_limit", "kinematic_yaw_limit", strict=False)  # fmt: skip
-        require(0.0 <= self.holdout_fraction < 1.0, "PredictorConfig.holdout_fraction",
-                f"must be in [0, 1), got {self.holdout_fraction}")  # fmt: skip
-        require(len(self.hidden_dims) > 0 and min(self.hidden_dims) >= 1, "PredictorConfig.hidden_dims",
-                f"must be positive layer sizes, got {self.hidden_dims}")  # fmt: skip
+        require(
+            0.0 < self.label_fraction <= 0.5,
+            "PredictorConfig.label_fraction",
+            f"must be in (0, 0.5] (the other robots train the policy), got {self.label_fraction}",
+        )
+        check_positive(
+            self,
+            "horizon_s",
+            "decision_interval_s",
+            "temperature_start",
+            "temperature_end",
+            "learning_rate",
+            "batch_size",
+            "buffer_size",
+        )
+        check_positive(
+            self,
+            "temperature_iterations",
+            "updates_per_iteration",
+            "feasible_margin",
+            "feasible_penalty",
+            "kinematic_lateral_limit",
+            "kinematic_yaw_limit",
+            strict=False,
+        )
+        require(
+            0.0 <= self.holdout_fraction < 1.0,
+            "PredictorConfig.holdout_fraction",
+            f"must be in [0, 1), got {self.holdout_fraction}",
+        )
+        require(
+            len(self.hidden_dims) > 0 and min(self.hidden_dims) >= 1,
+            "PredictorConfig.hidden_dims",
+            f"must be positive layer sizes, got {self.hidden_dims}",
+        )
 
 
 @dataclass
@@ -472,8 +509,11 @@ class EnvConfig(CheckedConfig):
         require(0.0 < f <= 1.0, "RewardConfig.soft_joint_limit", f"must be in (0, 1], got {f}")
         check_positive(self.reward, "ramp_start", "ramp_iterations", "ramp_gate_vy_error", strict=False)
         check_positive(self.reward, "ramp_gate_window")
-        require(self.gait.selection != "none" or not self.action.use_nominal_legs, "ActionConfig.use_nominal_legs",
-                "needs a nominal gait (gait.selection != 'none')")  # fmt: skip
+        require(
+            self.gait.selection != "none" or not self.action.use_nominal_legs,
+            "ActionConfig.use_nominal_legs",
+            "needs a nominal gait (gait.selection != 'none')",
+        )
 
 
 @dataclass
@@ -515,23 +555,39 @@ class TrainConfig(CheckedConfig):
 
     def check(self) -> None:
         module, sep, attr = self.algorithm_class.partition(":")
-        require(bool(sep and module and attr), "TrainConfig.algorithm_class",
-                f"must be 'module:Class', got {self.algorithm_class!r}")  # fmt: skip
-        check_positive(self, "num_steps_per_env", "max_iterations", "save_interval", "num_learning_epochs",
-                       "num_mini_batches", "learning_rate", "init_noise_std")  # fmt: skip
+        require(
+            bool(sep and module and attr),
+            "TrainConfig.algorithm_class",
+            f"must be 'module:Class', got {self.algorithm_class!r}",
+        )
+        check_positive(
+            self,
+            "num_steps_per_env",
+            "max_iterations",
+            "save_interval",
+            "num_learning_epochs",
+            "num_mini_batches",
+            "learning_rate",
+            "init_noise_std",
+        )
         check_positive(self, "mirror_loss_coeff", strict=False)
         g = self.init_noise_std_groups
-        require(len(g) in (0, 2, 3) and all(x > 0 for x in g), "TrainConfig.init_noise_std_groups",
-                f"needs 3 positive values (phase, foot, wheel) or 2 (joints, wheels), got {g}")  # fmt: skip
+        require(
+            len(g) in (0, 2, 3) and all(x > 0 for x in g),
+            "TrainConfig.init_noise_std_groups",
+            f"needs 3 positive values (phase, foot, wheel) or 2 (joints, wheels), got {g}",
+        )
 
     def symmetry_cfg(self) -> dict | None:
         """rsl-rl's ``symmetry_cfg`` for :attr:`symmetry` (None when off)."""
         if self.symmetry == "none":
             return None
-        return {"use_data_augmentation": self.symmetry in ("augmentation", "both"),
-                "use_mirror_loss": self.symmetry in ("mirror_loss", "both"),
-                "mirror_loss_coeff": self.mirror_loss_coeff,
-                "data_augmentation_func": "wqwarp.rl.observations:data_augmentation"}  # fmt: skip
+        return {
+            "use_data_augmentation": self.symmetry in ("augmentation", "both"),
+            "use_mirror_loss": self.symmetry in ("mirror_loss", "both"),
+            "mirror_loss_coeff": self.mirror_loss_coeff,
+            "data_augmentation_func": "wqwarp.rl.observations:data_augmentation",
+        }
 
     def rsl_rl_dict(self) -> dict:
         """The runner configuration rsl-rl 5.5.1 expects (asymmetric critic through ``obs_groups``)."""
@@ -540,20 +596,39 @@ class TrainConfig(CheckedConfig):
             "num_steps_per_env": self.num_steps_per_env,
             "save_interval": self.save_interval,
             "obs_groups": {"actor": ["policy"], "critic": ["policy", "privileged"]},
-            "actor": {"class_name": "MLPModel", "hidden_dims": list(self.actor_hidden_dims), "activation": "elu",
-                      "obs_normalization": True, "distribution_cfg": dist},
-            "critic": {"class_name": "MLPModel", "hidden_dims": list(self.critic_hidden_dims), "activation": "elu",
-                       "obs_normalization": True},
-            "algorithm": {"class_name": self.algorithm_class, "learning_rate": self.learning_rate,
-                          "num_learning_epochs": self.num_learning_epochs, "num_mini_batches": self.num_mini_batches,
-                          "clip_param": self.clip_param, "gamma": self.gamma, "lam": self.lam,
-                          "entropy_coef": self.entropy_coef, "desired_kl": self.desired_kl, "schedule": "adaptive",
-                          "value_loss_coef": 1.0, "max_grad_norm": 1.0, "use_clipped_value_loss": True,
-                          "symmetry_cfg": self.symmetry_cfg(),
-                          "init_std_groups": list(self.init_noise_std_groups) or None},
+            "actor": {
+                "class_name": "MLPModel",
+                "hidden_dims": list(self.actor_hidden_dims),
+                "activation": "elu",
+                "obs_normalization": True,
+                "distribution_cfg": dist,
+            },
+            "critic": {
+                "class_name": "MLPModel",
+                "hidden_dims": list(self.critic_hidden_dims),
+                "activation": "elu",
+                "obs_normalization": True,
+            },
+            "algorithm": {
+                "class_name": self.algorithm_class,
+                "learning_rate": self.learning_rate,
+                "num_learning_epochs": self.num_learning_epochs,
+                "num_mini_batches": self.num_mini_batches,
+                "clip_param": self.clip_param,
+                "gamma": self.gamma,
+                "lam": self.lam,
+                "entropy_coef": self.entropy_coef,
+                "desired_kl": self.desired_kl,
+                "schedule": "adaptive",
+                "value_loss_coef": 1.0,
+                "max_grad_norm": 1.0,
+                "use_clipped_value_loss": True,
+                "symmetry_cfg": self.symmetry_cfg(),
+                "init_std_groups": list(self.init_noise_std_groups) or None,
+            },
             "logger": "tensorboard",
             "check_for_nan": True,
-        }  # fmt: skip
+        }
 
 
 def to_dict(cfg) -> dict:

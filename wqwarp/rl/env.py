@@ -69,12 +69,17 @@ class WheeledGo1Env(VecEnv):
         self.num_gaits = len(self.gait_names)
         start_gait = gait_index(cfg.gait.fixed_gait, cfg.gait.library)
         if cfg.gait.selection != "none":
-            self.nominal = NominalGait(n, sim.device, library=cfg.gait.library, body_height=cfg.gait.body_height,
-                                       swing_height=cfg.gait.swing_height,
-                                       swing_x_amplitude=cfg.gait.swing_x_amplitude,
-                                       phase_mode=cfg.action.phase_residual_mode,
-                                       lateral_gain=cfg.gait.lateral_gain,
-                                       lateral_limit=cfg.gait.lateral_limit)  # fmt: skip
+            self.nominal = NominalGait(
+                n,
+                sim.device,
+                library=cfg.gait.library,
+                body_height=cfg.gait.body_height,
+                swing_height=cfg.gait.swing_height,
+                swing_x_amplitude=cfg.gait.swing_x_amplitude,
+                phase_mode=cfg.action.phase_residual_mode,
+                lateral_gain=cfg.gait.lateral_gain,
+                lateral_limit=cfg.gait.lateral_limit,
+            )
             wp.to_torch(self.nominal.gait_id)[:] = start_gait
             self.nominal.reset(np.arange(n))
 
@@ -86,8 +91,9 @@ class WheeledGo1Env(VecEnv):
         self.prev2_actions = torch.zeros_like(self.actions)
         self.prev_actions_wp = wp.from_torch(self.prev_actions)
         self.prev2_actions_wp = wp.from_torch(self.prev2_actions)
-        self.commands_wp = self.nominal.command if self.nominal else wp.zeros((n, 3), dtype=wp.float32,
-                                                                              device=sim.device)  # fmt: skip
+        self.commands_wp = (
+            self.nominal.command if self.nominal else wp.zeros((n, 3), dtype=wp.float32, device=sim.device)
+        )
         self.commands = wp.to_torch(self.commands_wp)
         self.prev_qd_wp = wp.zeros((n, 16), dtype=wp.float32, device=sim.device)
         self.foot_residual_wp = wp.zeros((n, 4), dtype=wp.vec3, device=sim.device)
@@ -104,8 +110,11 @@ class WheeledGo1Env(VecEnv):
         """Reward term names in the order of the kernel's columns (``reward_terms_wp``, ``episode_sums``)."""
         weights = cfg.reward.weights(reward_terms)
         unknown = sorted(set(cfg.reward.ramp_terms) - set(self.reward_names))
-        require(not unknown, "RewardConfig.ramp_terms", f"names no reward term: {', '.join(unknown)} (terms: "
-                f"{', '.join(self.reward_names)})")  # fmt: skip
+        require(
+            not unknown,
+            "RewardConfig.ramp_terms",
+            f"names no reward term: {', '.join(unknown)} (terms: {', '.join(self.reward_names)})",
+        )
         self.full_reward_weights = np.asarray(weights, np.float32)
         """w_k of each term at full weight (what evaluation and a policy outside training see)."""
         self.ramped = np.array([n in cfg.reward.ramp_terms for n in self.reward_names])
@@ -125,8 +134,10 @@ class WheeledGo1Env(VecEnv):
         self.reward_buf = wp.to_torch(self.reward_wp)
         self.episode_sums = wp.to_torch(self.episode_sums_wp)
         self.active_terms = [k for k, w in zip(self.reward_names, weights, strict=True) if w != 0.0]
-        self.joint_soft_limits_wp = tuple(wp.array(b.astype(np.float32), dtype=wp.float32, device=sim.device)
-                                          for b in soft_joint_limits(cfg.reward.soft_joint_limit))  # fmt: skip
+        self.joint_soft_limits_wp = tuple(
+            wp.array(b.astype(np.float32), dtype=wp.float32, device=sim.device)
+            for b in soft_joint_limits(cfg.reward.soft_joint_limit)
+        )
         self.reward_inputs = self._reward_inputs()
 
         # Domain randomisation (fixed per robot for the run) and pushes.
@@ -163,8 +174,9 @@ class WheeledGo1Env(VecEnv):
         H = cfg.obs.history_length
         self.history = torch.zeros(n, H, self.proprio_dim, device=dev)
         self.estimator = StateEstimator(H * self.proprio_dim, tuple(cfg.estimator.hidden_dims)).to(dev)
-        self.estimator_trainer = EstimatorTrainer(self.estimator, cfg.estimator.learning_rate, cfg.estimator.epochs,
-                                                  cfg.estimator.batch_size)  # fmt: skip
+        self.estimator_trainer = EstimatorTrainer(
+            self.estimator, cfg.estimator.learning_rate, cfg.estimator.epochs, cfg.estimator.batch_size
+        )
         self.estimate = torch.zeros(n, 3, device=dev)
         o = cfg.obs
         self.command_scale = torch.tensor([o.lin_vel_scale, o.lin_vel_scale, o.ang_vel_scale], device=dev)
@@ -183,8 +195,10 @@ class WheeledGo1Env(VecEnv):
         self._obs = self._observe()
         got = (self._obs["policy"].shape[1], self._obs["privileged"].shape[1])
         if got != (self.num_obs, self.privileged_dim):
-            raise ValueError(f"observation terms computed {got} columns, their layouts declare "
-                             f"{(self.num_obs, self.privileged_dim)} (wqwarp.rl.observations)")  # fmt: skip
+            raise ValueError(
+                f"observation terms computed {got} columns, their layouts declare "
+                f"{(self.num_obs, self.privileged_dim)} (wqwarp.rl.observations)"
+            )
 
     # --- helpers --------------------------------------------------------------------------------------------------
     def _uniform(self, rng: tuple[float, float], shape) -> torch.Tensor:
@@ -195,8 +209,14 @@ class WheeledGo1Env(VecEnv):
         quaternion (xyzw), linear [m/s] / angular [rad/s] velocity and projected gravity in the base frame, height
         [m], yaw [rad]."""
         tv = self.tv
-        return {"quat": tv["joint_q"][:, 3:7], "lin_vel": tv["base_lin_vel"], "ang_vel": tv["base_ang_vel"],
-                "height": tv["base_height"], "gravity": tv["projected_gravity"], "yaw": tv["base_yaw"]}  # fmt: skip
+        return {
+            "quat": tv["joint_q"][:, 3:7],
+            "lin_vel": tv["base_lin_vel"],
+            "ang_vel": tv["base_ang_vel"],
+            "height": tv["base_height"],
+            "gravity": tv["projected_gravity"],
+            "yaw": tv["base_yaw"],
+        }
 
     # --- rsl-rl interface -----------------------------------------------------------------------------------------
     def get_observations(self) -> TensorDict:
@@ -320,21 +340,40 @@ class WheeledGo1Env(VecEnv):
             ng = self.nominal
             wp.to_torch(ng.phase_residual)[:] = torch.clamp(cfg.phase_scale * a[:, :4], -cfg.phase_clip, cfg.phase_clip)
             ng.step(sim.actuated_q[:, :12], sim.wheel_contact, self.dt)
-            wp.launch(residual_targets, dim=(self.num_envs, 4),
-                      inputs=[self.actions_wp, ng.foot_target, ng.wheel_velocity, int(cfg.use_nominal_wheels),
-                              cfg.foot_scale, cfg.foot_clip, cfg.wheel_scale, cfg.wheel_clip],
-                      outputs=[self.foot_residual_wp, sim.leg_q_target, sim.wheel_qd_target],
-                      device=sim.device)  # fmt: skip
+            wp.launch(
+                residual_targets,
+                dim=(self.num_envs, 4),
+                inputs=[
+                    self.actions_wp,
+                    ng.foot_target,
+                    ng.wheel_velocity,
+                    int(cfg.use_nominal_wheels),
+                    cfg.foot_scale,
+                    cfg.foot_clip,
+                    cfg.wheel_scale,
+                    cfg.wheel_clip,
+                ],
+                outputs=[self.foot_residual_wp, sim.leg_q_target, sim.wheel_qd_target],
+                device=sim.device,
+            )
         else:
-            wp.launch(joint_offset_targets, dim=self.num_envs,
-                      inputs=[self.actions_wp, self.default_leg_q_wp, cfg.joint_scale, cfg.wheel_scale, cfg.wheel_clip],
-                      outputs=[sim.leg_q_target, sim.wheel_qd_target], device=sim.device)  # fmt: skip
+            wp.launch(
+                joint_offset_targets,
+                dim=self.num_envs,
+                inputs=[self.actions_wp, self.default_leg_q_wp, cfg.joint_scale, cfg.wheel_scale, cfg.wheel_clip],
+                outputs=[sim.leg_q_target, sim.wheel_qd_target],
+                device=sim.device,
+            )
 
     # --- rewards and logs ----------------------------------------------------------------------------------------
     def _compute_rewards(self) -> torch.Tensor:
-        wp.launch(self.reward_kernel, dim=self.num_envs, inputs=[self.reward_inputs, self.reward_weights],
-                  outputs=[self.reward_wp, self.reward_terms_wp, self.episode_sums_wp],
-                  device=self.sim.device)  # fmt: skip
+        wp.launch(
+            self.reward_kernel,
+            dim=self.num_envs,
+            inputs=[self.reward_inputs, self.reward_weights],
+            outputs=[self.reward_wp, self.reward_terms_wp, self.episode_sums_wp],
+            device=self.sim.device,
+        )
         return self.reward_buf
 
     def _reward_inputs(self) -> RewardInputs:
@@ -362,8 +401,15 @@ class WheeledGo1Env(VecEnv):
         err = torch.abs(b["lin_vel"][:, :2] - self.commands[:, :2])
         werr = torch.abs(b["ang_vel"][:, 2] - self.commands[:, 2])
         out = {"Metrics/vx_error": mean(err[:, 0]), "Metrics/vy_error": mean(err[:, 1]), "Metrics/wz_error": mean(werr)}
-        for k in ("p_cost", "p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs",
-                  "p_joule_wheels"):  # fmt: skip
+        for k in (
+            "p_cost",
+            "p_cost_legs",
+            "p_cost_wheels",
+            "p_mech_legs",
+            "p_mech_wheels",
+            "p_joule_legs",
+            "p_joule_wheels",
+        ):
             out[f"Metrics/{k}"] = mean(self.tv[k])
         label = self.gait_selector.label_robots
         if label is not None:  # what exploration costs: the same selection, with and without the action noise
@@ -395,8 +441,19 @@ class WheeledGo1Env(VecEnv):
         writes: no host synchronisation on CUDA)."""
         self.unstable_count += unstable.sum()
         rewards.masked_fill_(unstable, 0.0)
-        for k in ("p_cost", "p_mech", "p_joule", "p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels",
-                  "p_joule_legs", "p_joule_wheels", "torque_sq", "power_sq"):  # fmt: skip
+        for k in (
+            "p_cost",
+            "p_mech",
+            "p_joule",
+            "p_cost_legs",
+            "p_cost_wheels",
+            "p_mech_legs",
+            "p_mech_wheels",
+            "p_joule_legs",
+            "p_joule_wheels",
+            "torque_sq",
+            "power_sq",
+        ):
             self.tv[k].masked_fill_(unstable, 0.0)
         self.episode_sums.masked_fill_(unstable[:, None], 0.0)
 

@@ -20,12 +20,17 @@ def sample_dynamics(dr: DomainRandConfig, n: int, gen: torch.Generator, device) 
     no added mass and no ``motor_strength`` entry (the simulator's default is kept)."""
     if not dr.enabled:
         zeros = torch.zeros(n, device=device)
-        return {"friction": torch.full((n,), float(dr.nominal_friction), device=device), "restitution": zeros,
-                "added_mass": zeros.clone()}  # fmt: skip
-    return {"friction": uniform(gen, dr.friction_range, (n,), device),
-            "restitution": uniform(gen, dr.restitution_range, (n,), device),
-            "added_mass": uniform(gen, dr.added_mass_range, (n,), device),
-            "motor_strength": uniform(gen, dr.motor_strength_range, (n, 16), device)}  # fmt: skip
+        return {
+            "friction": torch.full((n,), float(dr.nominal_friction), device=device),
+            "restitution": zeros,
+            "added_mass": zeros.clone(),
+        }
+    return {
+        "friction": uniform(gen, dr.friction_range, (n,), device),
+        "restitution": uniform(gen, dr.restitution_range, (n,), device),
+        "added_mass": uniform(gen, dr.added_mass_range, (n,), device),
+        "motor_strength": uniform(gen, dr.motor_strength_range, (n, 16), device),
+    }
 
 
 def push_to_world(yaw: torch.Tensor, dv: torch.Tensor) -> torch.Tensor:

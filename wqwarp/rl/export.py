@@ -58,8 +58,7 @@ class OnboardPolicyWithPredictor(OnboardPolicy):
     """:class:`OnboardPolicy` plus the power predictor: history -> (actions (B, A), predicted p_cost per gait (B, G)
     [W]). The robot selects argmin over the predicted powers once per decision interval (see ``policy.json``)."""
 
-    def __init__(self, actor: nn.Module, estimator: nn.Module, split: int, z_scale: torch.Tensor,
-                 predictor: nn.Module):  # fmt: skip
+    def __init__(self, actor: nn.Module, estimator: nn.Module, split: int, z_scale: torch.Tensor, predictor: nn.Module):
         super().__init__(actor, estimator, split, z_scale)
         self.predictor = predictor
 
@@ -72,8 +71,15 @@ class OnboardPolicyWithFeasibility(OnboardPolicyWithPredictor):
     """:class:`OnboardPolicyWithPredictor` plus the tracking head (``feasible`` criterion): history -> (actions,
     predicted power (B, G) [W], predicted mean squared tracking error (B, G))."""
 
-    def __init__(self, actor: nn.Module, estimator: nn.Module, split: int, z_scale: torch.Tensor,
-                 predictor: nn.Module, tracker: nn.Module):  # fmt: skip
+    def __init__(
+        self,
+        actor: nn.Module,
+        estimator: nn.Module,
+        split: int,
+        z_scale: torch.Tensor,
+        predictor: nn.Module,
+        tracker: nn.Module,
+    ):
         super().__init__(actor, estimator, split, z_scale, predictor)
         self.tracker = tracker
 
@@ -97,8 +103,10 @@ def onboard_module(runner: WqRunner) -> tuple[OnboardPolicy, list[str]]:
             tracker = copy.deepcopy(sel.tracker).to("cpu").eval()
             module = OnboardPolicyWithFeasibility(actor, estimator, split, z_scale, predictor, tracker).eval()
             return module, ["actions", "predicted_power", "predicted_tracking_error"]
-        return OnboardPolicyWithPredictor(actor, estimator, split, z_scale, predictor).eval(), ["actions",
-                                                                                               "predicted_power"]
+        return OnboardPolicyWithPredictor(actor, estimator, split, z_scale, predictor).eval(), [
+            "actions",
+            "predicted_power",
+        ]
     return OnboardPolicy(actor, estimator, split, z_scale).eval(), ["actions"]
 
 
@@ -116,8 +124,9 @@ def _quiet_onnx_exporter() -> Iterator[None]:
     log.setLevel(logging.ERROR)
     try:
         with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message=r"`isinstance\(treespec, LeafSpec\)` is deprecated",
-                                    category=FutureWarning)  # fmt: skip
+            warnings.filterwarnings(
+                "ignore", message=r"`isinstance\(treespec, LeafSpec\)` is deprecated", category=FutureWarning
+            )
             yield
     finally:
         log.setLevel(level)
@@ -125,8 +134,16 @@ def _quiet_onnx_exporter() -> Iterator[None]:
 
 def _write_onnx(program: torch.export.ExportedProgram, outputs: list[str], path: str) -> None:
     with atomic_path(path) as tmp, _quiet_onnx_exporter():
-        torch.onnx.export(program, input_names=["history"], output_names=outputs, f=tmp, opset_version=18,
-                          dynamo=True, external_data=False, verbose=False)  # fmt: skip
+        torch.onnx.export(
+            program,
+            input_names=["history"],
+            output_names=outputs,
+            f=tmp,
+            opset_version=18,
+            dynamo=True,
+            external_data=False,
+            verbose=False,
+        )
 
 
 def _write_pt2(program: torch.export.ExportedProgram, path: str) -> None:
@@ -166,19 +183,24 @@ def policy_metadata(env: WheeledGo1Env, outputs: list[str]) -> dict:
         if p.kinematic_mask:
             flags = selector.stepless.tolist()
             stepless = [g for g, no_swing in zip(selector.gait_names, flags, strict=True) if no_swing]
-            candidates.append(f"the gaits other than {', '.join(stepless)} (no swing) if |v_y^cmd| > "
-                              f"{p.kinematic_lateral_limit} m/s or |w^cmd| > {p.kinematic_yaw_limit} rad/s, else every "
-                              "gait")  # fmt: skip
+            candidates.append(
+                f"the gaits other than {', '.join(stepless)} (no swing) if |v_y^cmd| > "
+                f"{p.kinematic_lateral_limit} m/s or |w^cmd| > {p.kinematic_yaw_limit} rad/s, else every "
+                "gait"
+            )
         if selector.tracker is not None:
             meta["gait_selection"]["predicted_tracking_error"] = (
-                "mean (v_x^cmd - v_x)^2 + (v_y^cmd - v_y)^2 + (w^cmd - w_z)^2 over the next horizon_s, per gait")
+                "mean (v_x^cmd - v_x)^2 + (v_y^cmd - v_y)^2 + (w^cmd - w_z)^2 over the next horizon_s, per gait"
+            )
             among = " of those" if candidates else ""
-            candidates.append(f"the gaits{among} with predicted_tracking_error <= the minimum{among} + "
-                              f"{p.feasible_margin}")  # fmt: skip
+            candidates.append(
+                f"the gaits{among} with predicted_tracking_error <= the minimum{among} + {p.feasible_margin}"
+            )
         if candidates:
             meta["gait_selection"]["rule"] = meta["gait_selection"]["rule"].replace(
                 "request gait = argmin(predicted_power)",
-                f"candidates = {'; then '.join(candidates)}; request gait = the candidate of least predicted_power")
+                f"candidates = {'; then '.join(candidates)}; request gait = the candidate of least predicted_power",
+            )
     return meta
 
 
@@ -189,8 +211,11 @@ def export_onboard_policy(runner: WqRunner, out_dir: str) -> dict[str, str]:
     os.makedirs(out_dir, exist_ok=True)
     model, outputs = onboard_module(runner)
     dummy = torch.zeros(2, env.cfg.obs.history_length, env.proprio_dim)
-    paths = {"onnx": os.path.join(out_dir, "policy.onnx"), "torch_export": os.path.join(out_dir, "policy.pt2"),
-             "json": os.path.join(out_dir, "policy.json")}  # fmt: skip
+    paths = {
+        "onnx": os.path.join(out_dir, "policy.onnx"),
+        "torch_export": os.path.join(out_dir, "policy.pt2"),
+        "json": os.path.join(out_dir, "policy.json"),
+    }
     program = exported_program(model, dummy)
     _write_onnx(program, outputs, paths["onnx"])
     _write_pt2(program, paths["torch_export"])

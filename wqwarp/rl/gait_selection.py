@@ -176,8 +176,14 @@ class WindowLabeler:
         self.dropped = torch.zeros((), dtype=torch.long, device=device)
         """Windows dropped since construction (reset or gait switch inside; a tensor: no host sync per step)."""
 
-    def start(self, obs: torch.Tensor, active: torch.Tensor, requested: torch.Tensor,
-              allowed: torch.Tensor | None = None, commands: torch.Tensor | None = None) -> None:  # fmt: skip
+    def start(
+        self,
+        obs: torch.Tensor,
+        active: torch.Tensor,
+        requested: torch.Tensor,
+        allowed: torch.Tensor | None = None,
+        commands: torch.Tensor | None = None,
+    ) -> None:
         """Open windows at o_t; ``allowed`` (N,) bool restricts them to those robots (None: every robot);
         ``commands`` (N, 3) are o_t's (needed with ``command_cut``)."""
         new = ~self.open & (active == requested)
@@ -194,8 +200,14 @@ class WindowLabeler:
         self.length[new] = 0
         self.open |= new
 
-    def step(self, p_cost: torch.Tensor, error: torch.Tensor, active: torch.Tensor, reset: torch.Tensor,
-             commands: torch.Tensor | None = None):  # fmt: skip
+    def step(
+        self,
+        p_cost: torch.Tensor,
+        error: torch.Tensor,
+        active: torch.Tensor,
+        reset: torch.Tensor,
+        commands: torch.Tensor | None = None,
+    ):
         """Account one policy step that ran gait ``active`` under ``commands`` (N, 3; needed with ``command_cut``),
         cost ``p_cost`` [W] and tracked with squared error ``error``; ``reset`` marks robots reset after it. Returns
         (obs (K, D), gait (K,), mean p_cost (K,), mean error (K,)) of the windows completed by this step."""
@@ -212,8 +224,12 @@ class WindowLabeler:
         self.length += self.open.long()
         done = self.open & (self.length >= self.horizon)
         self.open &= ~done
-        return (self.obs[done].clone(), self.gait[done].clone(), self.sum[done] / self.horizon,
-                self.err_sum[done] / self.horizon)  # fmt: skip
+        return (
+            self.obs[done].clone(),
+            self.gait[done].clone(),
+            self.sum[done] / self.horizon,
+            self.err_sum[done] / self.horizon,
+        )
 
 
 class WindowRing:
@@ -368,16 +384,26 @@ class PredictiveGaitSelector(FixedGaitSelector):
 
     name = "predictive"
 
-    def __init__(self, requested: torch.Tensor, gait_names: tuple[str, ...], start_gait: int, policy_dt: float,
-                 obs_dim: int, cfg, seed: int = 0, stepless: tuple[bool, ...] | None = None):  # fmt: skip
+    def __init__(
+        self,
+        requested: torch.Tensor,
+        gait_names: tuple[str, ...],
+        start_gait: int,
+        policy_dt: float,
+        obs_dim: int,
+        cfg,
+        seed: int = 0,
+        stepless: tuple[bool, ...] | None = None,
+    ):
         super().__init__(requested, gait_names, start_gait, policy_dt)
         self.cfg = cfg
         dev = requested.device
         n = len(requested)
         self.horizon = max(1, int(round(cfg.horizon_s / policy_dt)))
         self.decision_steps = max(1, int(round(cfg.decision_interval_s / policy_dt)))
-        self.schedule = TemperatureSchedule(cfg.temperature_start, cfg.temperature_end, cfg.temperature_iterations,
-                                            cfg.temperature_shape)  # fmt: skip
+        self.schedule = TemperatureSchedule(
+            cfg.temperature_start, cfg.temperature_end, cfg.temperature_iterations, cfg.temperature_shape
+        )
         self.iteration = 0
         self.training = False
         """True while the runner collects training data: sample at the schedule's tau and record windows."""
@@ -534,8 +560,9 @@ class PredictiveGaitSelector(FixedGaitSelector):
             return None
         return feasible_gaits(self.predict_error(obs), self.cfg.feasible_margin, allowed)
 
-    def rule_candidates(self, obs: torch.Tensor | None, commands: torch.Tensor | None,
-                        error: torch.Tensor | None = None) -> tuple[torch.Tensor | None, ...]:  # fmt: skip
+    def rule_candidates(
+        self, obs: torch.Tensor | None, commands: torch.Tensor | None, error: torch.Tensor | None = None
+    ) -> tuple[torch.Tensor | None, ...]:
         """The criterion's candidates for o_t (N, D) and its commands (N, 3), as two (N, G) bool masks or None
         (every gait): ``hard``, the kinematic mask, never crossed; ``soft``, the feasible margin (within ``hard``),
         softened by ``feasible_penalty`` while training at tau > 0 and a mask at the argmin. ``error`` (N, G): the
@@ -559,13 +586,15 @@ class PredictiveGaitSelector(FixedGaitSelector):
         self.holdout.put(obs[held], gait[held], y[held], e[held])
         self.replay.put(obs[~held], gait[~held], y[~held], e[~held])
 
-    def add_windows(self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor,
-                    e: torch.Tensor | None = None) -> None:  # fmt: skip
+    def add_windows(
+        self, obs: torch.Tensor, gait: torch.Tensor, y: torch.Tensor, e: torch.Tensor | None = None
+    ) -> None:
         """Add labelled windows directly (tests, offline data); ``e`` (tracking error) defaults to zeros."""
         self._store(obs, gait.long(), y, torch.zeros_like(y) if e is None else e)
 
-    def _update_normalization(self, p: PowerPredictor, y: torch.Tensor, min_std: float, obs_mean: torch.Tensor,
-                              obs_std: torch.Tensor) -> None:  # fmt: skip
+    def _update_normalization(
+        self, p: PowerPredictor, y: torch.Tensor, min_std: float, obs_mean: torch.Tensor, obs_std: torch.Tensor
+    ) -> None:
         """Input (given) and per-gait target normalisation of network ``p`` from the replay buffer's targets ``y``."""
         r = self.replay
         n = r.n
@@ -650,12 +679,19 @@ class PredictiveGaitSelector(FixedGaitSelector):
 
     # --- checkpoints -------------------------------------------------------------------------------------------------
     def state_dict(self) -> dict:
-        state = {"name": self.name, "predictor": self.predictor.state_dict(),
-                 "optimizer": self.optimizer.state_dict(), "iteration": self.iteration,
-                 "rng": self.gen.get_state()}  # fmt: skip
+        state = {
+            "name": self.name,
+            "predictor": self.predictor.state_dict(),
+            "optimizer": self.optimizer.state_dict(),
+            "iteration": self.iteration,
+            "rng": self.gen.get_state(),
+        }
         if self.tracker is not None:
-            state.update(tracker=self.tracker.state_dict(), tracker_optimizer=self.tracker_optimizer.state_dict(),
-                         tracker_fitted=self.tracker_fitted)  # fmt: skip
+            state.update(
+                tracker=self.tracker.state_dict(),
+                tracker_optimizer=self.tracker_optimizer.state_dict(),
+                tracker_fitted=self.tracker_fitted,
+            )
         return state
 
     def load_state_dict(self, state: dict) -> None:
@@ -672,8 +708,9 @@ class PredictiveGaitSelector(FixedGaitSelector):
             self.tracker_fitted = bool(state.get("tracker_fitted", True))
 
 
-def make_gait_selector(cfg, requested: torch.Tensor | None, gait_names: tuple[str, ...], start_gait: int,
-                       policy_dt: float, obs_dim: int) -> GaitSelector:  # fmt: skip
+def make_gait_selector(
+    cfg, requested: torch.Tensor | None, gait_names: tuple[str, ...], start_gait: int, policy_dt: float, obs_dim: int
+) -> GaitSelector:
     """The selector of ``cfg.gait.selection`` (``cfg``: ``wqwarp.rl.config.EnvConfig``)."""
     sel = cfg.gait.selection
     if sel == "none":
@@ -682,6 +719,7 @@ def make_gait_selector(cfg, requested: torch.Tensor | None, gait_names: tuple[st
         return FixedGaitSelector(requested, gait_names, start_gait, policy_dt)
     if sel == "predictive":
         stepless = tuple(g.df_swing == 0.0 for g in cfg.gait.library)
-        return PredictiveGaitSelector(requested, gait_names, start_gait, policy_dt, obs_dim, cfg.predictor, cfg.seed,
-                                      stepless)  # fmt: skip
+        return PredictiveGaitSelector(
+            requested, gait_names, start_gait, policy_dt, obs_dim, cfg.predictor, cfg.seed, stepless
+        )
     raise ValueError(f"unknown gait.selection {sel!r}; choose none, fixed or predictive")

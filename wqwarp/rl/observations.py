@@ -129,8 +129,9 @@ class ObservationTerm:
         """The mirror over this term's columns (ValueError unless it is a permutation of them)."""
         m = self.mirror(dims) if callable(self.mirror) else self.mirror
         if len(m[0]) != self.dim(dims) or sorted(m[0]) != list(range(self.dim(dims))):
-            raise ValueError(f"observation term {self.name!r}: mirror is not a permutation of its {self.dim(dims)} "
-                             "columns")  # fmt: skip
+            raise ValueError(
+                f"observation term {self.name!r}: mirror is not a permutation of its {self.dim(dims)} columns"
+            )
         return m
 
 
@@ -146,9 +147,17 @@ def _gait(env, base) -> torch.Tensor:
     vn = wp.to_torch(ng.wheel_velocity)
     if not env.cfg.action.use_nominal_wheels:
         vn = torch.zeros_like(vn)
-    return torch.cat([torch.sin(2 * math.pi * phase), torch.cos(2 * math.pi * phase),
-                      wp.to_torch(ng.phase_residual), freq[:, None], df[:, None],
-                      vn * env.cfg.obs.wheel_speed_scale], dim=1)  # fmt: skip
+    return torch.cat(
+        [
+            torch.sin(2 * math.pi * phase),
+            torch.cos(2 * math.pi * phase),
+            wp.to_torch(ng.phase_residual),
+            freq[:, None],
+            df[:, None],
+            vn * env.cfg.obs.wheel_speed_scale,
+        ],
+        dim=1,
+    )
 
 
 def _gait_one_hot(env, base) -> torch.Tensor:
@@ -166,16 +175,23 @@ ESTIMATE = "estimate"
 ACTOR_TERMS: tuple[ObservationTerm, ...] = (
     ObservationTerm("base_ang_vel", 3, lambda env, b: b["ang_vel"], same(-1, 1, -1), "noise_ang_vel", "ang_vel_scale"),
     ObservationTerm("gravity", 3, lambda env, b: b["gravity"], same(1, -1, 1), "noise_gravity"),
-    ObservationTerm("leg_pos", 12, lambda env, b: env.tv["actuated_q"][:, :12] - env.default_leg_q, LEG_JOINTS,
-                    "noise_joint_pos"),
-    ObservationTerm("joint_vel", 16, lambda env, b: env.tv["actuated_qd"], concat(LEG_JOINTS, WHEELS),
-                    "noise_joint_vel", "joint_vel_scale"),
+    ObservationTerm(
+        "leg_pos", 12, lambda env, b: env.tv["actuated_q"][:, :12] - env.default_leg_q, LEG_JOINTS, "noise_joint_pos"
+    ),
+    ObservationTerm(
+        "joint_vel",
+        16,
+        lambda env, b: env.tv["actuated_qd"],
+        concat(LEG_JOINTS, WHEELS),
+        "noise_joint_vel",
+        "joint_vel_scale",
+    ),
     ObservationTerm("gait", 18, _gait, concat(WHEELS, WHEELS, WHEELS, same(1, 1), WHEELS)),
     ObservationTerm(ESTIMATE, 3, None, same(1, -1, 1)),
     ObservationTerm("command", 3, lambda env, b: env.commands * env.command_scale, same(1, -1, -1)),
     ObservationTerm("prev_action", _actions, lambda env, b: env.prev_actions, lambda d: action_mirror(d.num_actions)),
     ObservationTerm("prev2_action", _actions, lambda env, b: env.prev2_actions, lambda d: action_mirror(d.num_actions)),
-)  # fmt: skip
+)
 """The actor observation o_t, in column order."""
 
 PRIVILEGED_TERMS: tuple[ObservationTerm, ...] = (
@@ -187,7 +203,7 @@ PRIVILEGED_TERMS: tuple[ObservationTerm, ...] = (
     ObservationTerm("wheel_force", 4, lambda env, b: env.tv["wheel_force"] / 100.0, WHEELS),
     ObservationTerm("push", 2, lambda env, b: env.push_vel, same(1, -1)),
     ObservationTerm("gait_id", lambda d: d.num_gaits, _gait_one_hot, lambda d: same(*([1] * d.num_gaits))),
-)  # fmt: skip
+)
 """The critic's privileged x_t (appended to o_t by rsl-rl's ``obs_groups``), in column order."""
 
 
@@ -234,8 +250,10 @@ def compute_terms(env, terms: tuple[ObservationTerm, ...], base: dict) -> list[t
 
 def mirror_tensors(mirror: Mirror, device: str = "cpu") -> tuple[torch.Tensor, torch.Tensor]:
     """(perm (D,) long, signs (D,) float32) of a mirror, on ``device``."""
-    return (torch.tensor(mirror[0], dtype=torch.long, device=device),
-            torch.tensor(mirror[1], dtype=torch.float32, device=device))  # fmt: skip
+    return (
+        torch.tensor(mirror[0], dtype=torch.long, device=device),
+        torch.tensor(mirror[1], dtype=torch.float32, device=device),
+    )
 
 
 def mirror_matrix(terms: tuple[ObservationTerm, ...], dims: Dims, device: str = "cpu") -> tuple[torch.Tensor, ...]:
@@ -253,8 +271,9 @@ def apply_mirror(x: torch.Tensor, perm: torch.Tensor, signs: torch.Tensor) -> to
 def mirror_observations(env, obs: TensorDict) -> TensorDict:
     """The left-right mirror of each observation group (``policy`` o_t, ``privileged`` x_t) of ``obs``."""
     groups = {"policy": env.obs_mirror, "privileged": env.privileged_mirror}
-    return TensorDict({k: apply_mirror(v, *groups[k]) for k, v in obs.items()}, batch_size=obs.batch_size,
-                      device=obs.device)  # fmt: skip
+    return TensorDict(
+        {k: apply_mirror(v, *groups[k]) for k, v in obs.items()}, batch_size=obs.batch_size, device=obs.device
+    )
 
 
 def mirror_actions(env, actions: torch.Tensor) -> torch.Tensor:

@@ -54,8 +54,12 @@ def _baseline() -> EnvConfig:
     return cfg
 
 
-IDENTITY_FIELDS: tuple[str, ...] = ("gait.selection", "gait.fixed_gait", "action.use_nominal_legs",
-                                    "action.use_nominal_wheels")  # fmt: skip
+IDENTITY_FIELDS: tuple[str, ...] = (
+    "gait.selection",
+    "gait.fixed_gait",
+    "action.use_nominal_legs",
+    "action.use_nominal_wheels",
+)
 """The behaviour settings that tell the paper's methods apart (dotted paths in :class:`EnvConfig`): a checkpoint
 whose values differ from a preset's was not trained as that preset."""
 
@@ -86,14 +90,23 @@ class Preset:
         return self.selector == "predictive"
 
 
-PRESETS: dict[str, Preset] = {p.name: p for p in (
-    Preset("ours", _ours, "Ours", "predictive gait selection with nominal wheel velocities", selection_studies=True),
-    Preset("no_predictor", _no_predictor, "Ours w/o switching", "fixed augmented trotting gait"),
-    Preset("no_wheel_vel", _no_wheel_vel, "Ours w/o nominal wheel velocity",
-           "predictive selection without nominal wheel velocities"),
-    Preset("pmtg", _pmtg, "PMTG", "trotting without nominal wheel velocities"),
-    Preset("baseline", _baseline, "Baseline", "no nominal gait: joint offsets and wheel velocities"),
-)}  # fmt: skip
+PRESETS: dict[str, Preset] = {
+    p.name: p
+    for p in (
+        Preset(
+            "ours", _ours, "Ours", "predictive gait selection with nominal wheel velocities", selection_studies=True
+        ),
+        Preset("no_predictor", _no_predictor, "Ours w/o switching", "fixed augmented trotting gait"),
+        Preset(
+            "no_wheel_vel",
+            _no_wheel_vel,
+            "Ours w/o nominal wheel velocity",
+            "predictive selection without nominal wheel velocities",
+        ),
+        Preset("pmtg", _pmtg, "PMTG", "trotting without nominal wheel velocities"),
+        Preset("baseline", _baseline, "Baseline", "no nominal gait: joint offsets and wheel velocities"),
+    )
+}
 """Preset name -> :class:`Preset`, in report and training order (the paper's method first, so a partial reproduction
 has the rows that matter most)."""
 PRESET_ORDER: tuple[str, ...] = tuple(PRESETS)
@@ -125,8 +138,11 @@ def config_value(cfg: EnvConfig, path: str) -> object:
 def preset_differences(name: str, cfg: EnvConfig) -> list[str]:
     """Where ``cfg`` differs from preset ``name`` in :data:`IDENTITY_FIELDS`, as ``"path value (preset x: value)"``."""
     ref = make_preset(name)
-    return [f"{k} {config_value(cfg, k)!r} (preset {name}: {config_value(ref, k)!r})" for k in IDENTITY_FIELDS
-            if config_value(ref, k) != config_value(cfg, k)]  # fmt: skip
+    return [
+        f"{k} {config_value(cfg, k)!r} (preset {name}: {config_value(ref, k)!r})"
+        for k in IDENTITY_FIELDS
+        if config_value(ref, k) != config_value(cfg, k)
+    ]
 
 
 def infer_preset(cfg: EnvConfig) -> str | None:

@@ -74,11 +74,13 @@ def status_line(m: dict, total: int, eta_s: float) -> str:
     frac = it / max(total, 1)
     bar = "#" * int(20 * frac) + "-" * (20 - int(20 * frac))
     g = lambda k: _num(m.get(k))  # noqa: E731
-    status = (f"[{bar}] {it}/{total} ETA {datetime.timedelta(seconds=int(eta_s))} | "
-              f"reward {g('mean_reward'):7.2f} | err vx {g('Metrics/vx_error'):.2f} vy {g('Metrics/vy_error'):.2f} "
-              f"wz {g('Metrics/wz_error'):.2f} | power {g('Metrics/p_cost'):6.1f} W (legs "
-              f"{g('Metrics/p_cost_legs'):5.1f}, wheels {g('Metrics/p_cost_wheels'):5.1f}) | "
-              f"{g('steps_per_s'):6.0f} steps/s")  # fmt: skip
+    status = (
+        f"[{bar}] {it}/{total} ETA {datetime.timedelta(seconds=int(eta_s))} | "
+        f"reward {g('mean_reward'):7.2f} | err vx {g('Metrics/vx_error'):.2f} vy {g('Metrics/vy_error'):.2f} "
+        f"wz {g('Metrics/wz_error'):.2f} | power {g('Metrics/p_cost'):6.1f} W (legs "
+        f"{g('Metrics/p_cost_legs'):5.1f}, wheels {g('Metrics/p_cost_wheels'):5.1f}) | "
+        f"{g('steps_per_s'):6.0f} steps/s"
+    )
     usage = usage_from_scalars(m)
     if usage:
         status += " | gaits " + " ".join(f"{n[:5]} {100 * v:3.0f}%" for n, v in usage.items())
@@ -91,8 +93,13 @@ class ProgressLogger(Logger):
     """rsl-rl's ``Logger`` with the iteration's own scalars, ``metrics.jsonl`` and a one-line console (module
     docstring). The constructor takes ``Logger``'s arguments plus the two below."""
 
-    def __init__(self, *args, iteration_log: Callable[[], dict[str, float]] | None = None,
-                 console: Literal["line", "block", "none"] = "line", **kwargs) -> None:  # fmt: skip
+    def __init__(
+        self,
+        *args,
+        iteration_log: Callable[[], dict[str, float]] | None = None,
+        console: Literal["line", "block", "none"] = "line",
+        **kwargs,
+    ) -> None:
         super().__init__(*args, **kwargs)
         self.iteration_log = iteration_log
         """Called once per iteration (on every rank: it restarts the counters): scalars of the whole iteration."""
@@ -106,9 +113,21 @@ class ProgressLogger(Logger):
         super().init_logging_writer()
         self._t0 = self._t_last = time.time()
 
-    def log(self, it: int, start_it: int, total_it: int, collect_time: float, learn_time: float, loss_dict: dict,
-            learning_rate: float, action_std: torch.Tensor, rnd_weight: float | None, print_minimal: bool = False,
-            width: int = 80, pad: int = 40) -> None:  # fmt: skip
+    def log(
+        self,
+        it: int,
+        start_it: int,
+        total_it: int,
+        collect_time: float,
+        learn_time: float,
+        loss_dict: dict,
+        learning_rate: float,
+        action_std: torch.Tensor,
+        rnd_weight: float | None,
+        print_minimal: bool = False,
+        width: int = 80,
+        pad: int = 40,
+    ) -> None:
         scalars = self.iteration_log() if self.iteration_log is not None else {}
         if self.writer is not None:
             if scalars:
@@ -117,8 +136,20 @@ class ProgressLogger(Logger):
             self._append(self.metrics)
         quiet = self.console != "block"
         with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
-            super().log(it, start_it, total_it, collect_time, learn_time, loss_dict, learning_rate, action_std,
-                        rnd_weight, print_minimal, width, pad)  # fmt: skip
+            super().log(
+                it,
+                start_it,
+                total_it,
+                collect_time,
+                learn_time,
+                loss_dict,
+                learning_rate,
+                action_std,
+                rnd_weight,
+                print_minimal,
+                width,
+                pad,
+            )
         if self.writer is not None:  # rsl-rl logs the mean std; the row holds it per action group
             for key, value in self.metrics.items():
                 if key.startswith("Policy/std_"):
@@ -130,8 +161,15 @@ class ProgressLogger(Logger):
             if (it + 1) % 10 == 0 or it + 1 == total_it:
                 print(flush=True)
 
-    def _row(self, it: int, collect_time: float, learn_time: float, loss_dict: dict, learning_rate: float,
-             action_std: torch.Tensor) -> dict:  # fmt: skip
+    def _row(
+        self,
+        it: int,
+        collect_time: float,
+        learn_time: float,
+        loss_dict: dict,
+        learning_rate: float,
+        action_std: torch.Tensor,
+    ) -> dict:
         """The iteration's metrics: counters and timings [s], means of the extras, losses (``Loss/<name>``)."""
         now = time.time()
         steps = self.cfg["num_steps_per_env"] * self.num_envs * self.gpu_world_size  # all ranks under torchrun

@@ -86,29 +86,51 @@ TABLE_II: tuple[RewardTerm, ...] = (
     RewardTerm("orientation", -2.0, "||g_xy||^2, projected gravity.", lambda x: (x["g"][:, :2] ** 2).sum(1)),
     RewardTerm("lin_vel_z", -2.0, "v_z^2.", lambda x: x["v"][:, 2] ** 2),
     RewardTerm("ang_vel_xy", -0.05, "||w_xy||^2.", lambda x: (x["w"][:, :2] ** 2).sum(1)),
-    RewardTerm("joint_acc", -2.5e-7, "||qdd||^2 over the 16 joints, finite difference over a policy step.",
-               lambda x: (((x["actuated_qd"] - x["prev_actuated_qd"]) / x["dt"]) ** 2).sum(1)),
+    RewardTerm(
+        "joint_acc",
+        -2.5e-7,
+        "||qdd||^2 over the 16 joints, finite difference over a policy step.",
+        lambda x: (((x["actuated_qd"] - x["prev_actuated_qd"]) / x["dt"]) ** 2).sum(1),
+    ),
     RewardTerm("torques", -1e-5, "||tau||^2.", lambda x: x["torque_sq"]),
-    RewardTerm("action_smoothness", -0.01, "||a_t + a_{t-2} - 2 a_{t-1}||^2.",
-               lambda x: ((x["action"] + x["prev2_action"] - 2 * x["prev_action"]) ** 2).sum(1)),
-    RewardTerm("collision", -2.0, "Number of trunk / thigh / calf bodies touching the ground.",
-               lambda x: x["body_collision"].sum(1).astype(float)),
+    RewardTerm(
+        "action_smoothness",
+        -0.01,
+        "||a_t + a_{t-2} - 2 a_{t-1}||^2.",
+        lambda x: ((x["action"] + x["prev2_action"] - 2 * x["prev_action"]) ** 2).sum(1),
+    ),
+    RewardTerm(
+        "collision",
+        -2.0,
+        "Number of trunk / thigh / calf bodies touching the ground.",
+        lambda x: x["body_collision"].sum(1).astype(float),
+    ),
     RewardTerm("energy", -1e-5, "||tau * qd||^2.", lambda x: x["power_sq"]),
-)  # fmt: skip
+)
 """The paper's Table II in kernel-column order."""
 
 BEYOND_PAPER: tuple[RewardTerm, ...] = (
-    RewardTerm("p_cost", 0.0, "sum_j |tau_j| |qd_j| [W]: the paper's power cost (its evaluation metric, Sec. IV-A) "
-               "as a reward term, substep average; not in Table II (0: off). Training draws 100-400 W (exploration "
-               "noise, randomisation; the deterministic policy 11-64 W per task), so -0.01 per W costs 1-4 per "
-               "second of a reward that ends near 5 (docs/studies/residual_energy).", lambda x: x["p_cost"],
-               migration=Migration(0.0, "no power-cost term before the setting existed")),
-    RewardTerm("joint_limits", 0.0, "sum_j max(0, l_j - q_j) + max(0, q_j - u_j) [rad] over the 12 leg joints, (l_j, "
-               "u_j) the joint range shrunk about its centre to reward.soft_joint_limit of its width (legged_gym's "
-               "dof_pos_limits: -10 with soft_dof_pos_limit 0.9 in legged_gym/envs/a1/a1_config.py); not in Table II "
-               "(0: off).", lambda x: _beyond_soft_limits(x),
-               migration=Migration(0.0, "no joint-limit term before the setting existed")),
-)  # fmt: skip
+    RewardTerm(
+        "p_cost",
+        0.0,
+        "sum_j |tau_j| |qd_j| [W]: the paper's power cost (its evaluation metric, Sec. IV-A) "
+        "as a reward term, substep average; not in Table II (0: off). Training draws 100-400 W (exploration "
+        "noise, randomisation; the deterministic policy 11-64 W per task), so -0.01 per W costs 1-4 per "
+        "second of a reward that ends near 5 (docs/studies/residual_energy).",
+        lambda x: x["p_cost"],
+        migration=Migration(0.0, "no power-cost term before the setting existed"),
+    ),
+    RewardTerm(
+        "joint_limits",
+        0.0,
+        "sum_j max(0, l_j - q_j) + max(0, q_j - u_j) [rad] over the 12 leg joints, (l_j, "
+        "u_j) the joint range shrunk about its centre to reward.soft_joint_limit of its width (legged_gym's "
+        "dof_pos_limits: -10 with soft_dof_pos_limit 0.9 in legged_gym/envs/a1/a1_config.py); not in Table II "
+        "(0: off).",
+        lambda x: _beyond_soft_limits(x),
+        migration=Migration(0.0, "no joint-limit term before the setting existed"),
+    ),
+)
 """Terms beyond the paper's reward, each at weight 0 by default (options measured side by side)."""
 
 TERMS: tuple[RewardTerm, ...] = TABLE_II + BEYOND_PAPER

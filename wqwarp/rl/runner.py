@@ -41,12 +41,20 @@ class WqRunner(OnPolicyRunner):
     def __init__(self, env: WheeledGo1Env, train_cfg: dict, log_dir: str | None = None, device: str = "cpu"):
         super().__init__(env, train_cfg, log_dir=log_dir, device=device)
         if not isinstance(self.alg, WqPPO):
-            raise TypeError(f"WqRunner needs algorithm.class_name 'wqwarp.rl.algorithm:WqPPO', got "
-                            f"{type(self.alg).__name__}")  # fmt: skip
-        self.logger = ProgressLogger(log_dir=log_dir, cfg=self.cfg, env_cfg=self.env.cfg, num_envs=self.env.num_envs,
-                                     is_distributed=self.is_distributed, gpu_world_size=self.gpu_world_size,
-                                     gpu_global_rank=self.gpu_global_rank, device=self.device,
-                                     iteration_log=self.env.gait_selector.log_scalars)  # fmt: skip
+            raise TypeError(
+                f"WqRunner needs algorithm.class_name 'wqwarp.rl.algorithm:WqPPO', got {type(self.alg).__name__}"
+            )
+        self.logger = ProgressLogger(
+            log_dir=log_dir,
+            cfg=self.cfg,
+            env_cfg=self.env.cfg,
+            num_envs=self.env.num_envs,
+            is_distributed=self.is_distributed,
+            gpu_world_size=self.gpu_world_size,
+            gpu_global_rank=self.gpu_global_rank,
+            device=self.device,
+            iteration_log=self.env.gait_selector.log_scalars,
+        )
 
     def _configure_multi_gpu(self) -> None:
         """rsl-rl's multi-GPU set-up, and the same on CPU: under torchrun with ``device="cpu"`` every rank joins a
@@ -62,8 +70,11 @@ class WqRunner(OnPolicyRunner):
         self.is_distributed = True
         self.gpu_local_rank = int(os.getenv("LOCAL_RANK", "0"))
         self.gpu_global_rank = int(os.getenv("RANK", "0"))
-        self.cfg["multi_gpu"] = {"global_rank": self.gpu_global_rank, "local_rank": self.gpu_local_rank,
-                                 "world_size": world}  # fmt: skip
+        self.cfg["multi_gpu"] = {
+            "global_rank": self.gpu_global_rank,
+            "local_rank": self.gpu_local_rank,
+            "world_size": world,
+        }
         if not dist.is_initialized():
             dist.init_process_group(backend="gloo", rank=self.gpu_global_rank, world_size=world)
 
@@ -81,8 +92,13 @@ class WqRunner(OnPolicyRunner):
                 nets["estimator" if learner.key == "estimator" else "predictor"] = module
         out = {}
         for name, net in nets.items():
-            flat = torch.cat([t.detach().reshape(-1).float() for t in list(net.parameters()) + list(net.buffers())
-                              if t.is_floating_point()])  # fmt: skip
+            flat = torch.cat(
+                [
+                    t.detach().reshape(-1).float()
+                    for t in list(net.parameters()) + list(net.buffers())
+                    if t.is_floating_point()
+                ]
+            )
             ref = flat.clone()
             dist.broadcast(ref, src=0)
             diff = (flat - ref).abs().max().reshape(1)
@@ -109,9 +125,12 @@ class WqRunner(OnPolicyRunner):
             "num_actions": env.num_actions,
             "env_cfg": to_dict(env.cfg),
             **({"train_cfg": self.train_config} if self.train_config is not None else {}),
-            "rng": {"torch": torch.get_rng_state(), "env": env.gen.get_state(),
-                    **({"cuda": torch.cuda.get_rng_state(env.device)} if env.device.startswith("cuda") else {})},
-        }  # fmt: skip
+            "rng": {
+                "torch": torch.get_rng_state(),
+                "env": env.gen.get_state(),
+                **({"cuda": torch.cuda.get_rng_state(env.device)} if env.device.startswith("cuda") else {}),
+            },
+        }
 
     def save(self, path: str, infos: dict | None = None) -> None:
         """rsl-rl's save with :meth:`_env_infos` (plus ``infos``), atomically: a crash never leaves a truncated
@@ -121,8 +140,14 @@ class WqRunner(OnPolicyRunner):
         with atomic_path(path) as tmp:
             super().save(tmp, merged)
 
-    def load(self, path: str, load_cfg: dict | None = None, strict: bool = True, map_location: str | None = None,
-             restore_rng: bool = False):  # fmt: skip
+    def load(
+        self,
+        path: str,
+        load_cfg: dict | None = None,
+        strict: bool = True,
+        map_location: str | None = None,
+        restore_rng: bool = False,
+    ):
         """Load a checkpoint written by :meth:`save` after checking it fits the env (:func:`check_compatible`).
         ``restore_rng`` (resuming a training run) also restores the random streams (torch's, the env's and the gait
         selector's generators) where they stood at the checkpoint instead of restarting them from the seed (the
@@ -136,8 +161,18 @@ class WqRunner(OnPolicyRunner):
         if not isinstance(ckpt, dict):
             raise ValueError(f"{path} is not a wqwarp checkpoint (holds a {type(ckpt).__name__})")
         check_compatible(ckpt.get("infos") or {}, self.env, path)
-        cfg = {"actor": True, "critic": True, "optimizer": True, "iteration": True, "rnd": True, "estimator": True,
-               "gait_selector": True, "reward_ramp": True, **(load_cfg or {}), "rng": restore_rng}  # fmt: skip
+        cfg = {
+            "actor": True,
+            "critic": True,
+            "optimizer": True,
+            "iteration": True,
+            "rnd": True,
+            "estimator": True,
+            "gait_selector": True,
+            "reward_ramp": True,
+            **(load_cfg or {}),
+            "rng": restore_rng,
+        }
         try:
             infos = super().load(path, cfg, strict, map_location or self.device)
         except ValueError as e:
@@ -161,8 +196,12 @@ def gait_differences(saved: dict, current: dict) -> list[str]:
     out = []
     for key, value in current.items():
         old = saved.get(key)
-        same = (old == value) if isinstance(value, str) else old is not None and bool(
-            np.allclose(np.asarray(old, dtype=float), np.asarray(value, dtype=float), rtol=0.0, atol=1e-9))
+        same = (
+            (old == value)
+            if isinstance(value, str)
+            else old is not None
+            and bool(np.allclose(np.asarray(old, dtype=float), np.asarray(value, dtype=float), rtol=0.0, atol=1e-9))
+        )
         if not same:
             out.append(f"{key} {old} in the checkpoint, {value} here")
     return out
@@ -175,13 +214,18 @@ def check_compatible(infos: dict, env: WheeledGo1Env, path: str) -> None:
         raise ValueError(f"{path} is not a wqwarp checkpoint (no observation layout recorded)")
     library = ((infos.get("env_cfg") or {}).get("gait") or {}).get("library")  # recorded since gaits are config
     if library is not None and [g["name"] for g in library] != list(env.gait_names):
-        raise ValueError(f"{path} was trained with the gaits {[g['name'] for g in library]}, this env runs "
-                         f"{list(env.gait_names)}")  # fmt: skip
+        raise ValueError(
+            f"{path} was trained with the gaits {[g['name'] for g in library]}, this env runs {list(env.gait_names)}"
+        )
     for saved, gait in zip(library or [], env.cfg.gait.library, strict=False):
         if differences := gait_differences(saved, dataclasses.asdict(gait)):
-            raise ValueError(f"{path} was trained with another {gait.name!r} gait ({'; '.join(differences)}): run "
-                             "the checkpoint's gait library (a tuned gait: --env.gait.tuned FILE)")  # fmt: skip
+            raise ValueError(
+                f"{path} was trained with another {gait.name!r} gait ({'; '.join(differences)}): run "
+                "the checkpoint's gait library (a tuned gait: --env.gait.tuned FILE)"
+            )
     if layout != [tuple(x) for x in env.obs_layout] or infos.get("num_actions") != env.num_actions:
-        raise ValueError(f"{path} was trained with another observation/action layout ({infos.get('num_actions')} "
-                         f"actions, {sum(k for _, k in layout)} observations) than this preset "
-                         f"({env.num_actions} actions, {env.num_obs} observations)")  # fmt: skip
+        raise ValueError(
+            f"{path} was trained with another observation/action layout ({infos.get('num_actions')} "
+            f"actions, {sum(k for _, k in layout)} observations) than this preset "
+            f"({env.num_actions} actions, {env.num_obs} observations)"
+        )

@@ -52,31 +52,67 @@ class Lever:
 
 
 RECIPE_LEVERS: tuple[Lever, ...] = (
-    Lever("env.gait.lateral_gain", 0.35, _nominal_legs,
-          "lateral foot-y stroke A = 0.35 s x v_y command (clip 0.12 m): v_y MSE 0.168 -> 0.062 (fixed trot, 12.3 M)",
-          "omnidirectional"),
-    Lever("env.predictor.label_source", "mean", _predictive,
-          "labels from robots acting with the mean action: forecasts 0.8-1.2x the realised p_cost (paper's: 1.9-2.8x)",
-          "omnidirectional"),
-    Lever("env.predictor.label_fraction", 0.03125, _predictive,
-          "4 of 128 robots label (1/8: both seeds took the noise-escape posture, v_y lost)", "omnidirectional"),
-    Lever("env.predictor.kinematic_yaw_limit", 0.2, _predictive,
-          "driving is no candidate for |w| > 0.2 rad/s: w tracked on both seeds, in legged gaits (10, driving a "
-          "candidate for every turn: w -34/-39 % power at 1.8/2.0x MSE, the other tasks worse)", "omnidirectional"),
-    Lever("train.init_noise_std_groups", (0.5, 0.25, 0.5), _nominal_legs,
-          "initial foot std 0.25 (phase, wheels 0.5): 0 of 6 runs took the noise-escape posture, 2 of 4 without",
-          "omnidirectional"),
-    Lever("env.sim.wheel_ki", 0.0, _every,
-          "P-only wheels (the authors' harness's law): the wheel integrals wound up against each other (front push, "
-          "rear brake); -59 to -65 % power on v_x, two seeds", "residual_energy"),
-    Lever("env.predictor.criterion", "kinematic_feasible", _predictive,
-          "among the gaits the kinematic mask leaves, those predicted to track: v_y MSE 0.020 / 0.012 against "
-          "0.049 / 0.070 with the kinematic rule (two seeds, 15 M)", "feasible_selection"),
-    Lever("env.predictor.label_command_cut", True, _predictive,
-          "predictor windows that straddle a command resample are dropped: the tracking head's argmin is the best "
-          "tracker in 49 / 46 of 50 energy-map cells (uncut 40 / 21); standing and v_x driven 96-99 %",
-          "feasible_selection"),
-)  # fmt: skip
+    Lever(
+        "env.gait.lateral_gain",
+        0.35,
+        _nominal_legs,
+        "lateral foot-y stroke A = 0.35 s x v_y command (clip 0.12 m): v_y MSE 0.168 -> 0.062 (fixed trot, 12.3 M)",
+        "omnidirectional",
+    ),
+    Lever(
+        "env.predictor.label_source",
+        "mean",
+        _predictive,
+        "labels from robots acting with the mean action: forecasts 0.8-1.2x the realised p_cost (paper's: 1.9-2.8x)",
+        "omnidirectional",
+    ),
+    Lever(
+        "env.predictor.label_fraction",
+        0.03125,
+        _predictive,
+        "4 of 128 robots label (1/8: both seeds took the noise-escape posture, v_y lost)",
+        "omnidirectional",
+    ),
+    Lever(
+        "env.predictor.kinematic_yaw_limit",
+        0.2,
+        _predictive,
+        "driving is no candidate for |w| > 0.2 rad/s: w tracked on both seeds, in legged gaits (10, driving a "
+        "candidate for every turn: w -34/-39 % power at 1.8/2.0x MSE, the other tasks worse)",
+        "omnidirectional",
+    ),
+    Lever(
+        "train.init_noise_std_groups",
+        (0.5, 0.25, 0.5),
+        _nominal_legs,
+        "initial foot std 0.25 (phase, wheels 0.5): 0 of 6 runs took the noise-escape posture, 2 of 4 without",
+        "omnidirectional",
+    ),
+    Lever(
+        "env.sim.wheel_ki",
+        0.0,
+        _every,
+        "P-only wheels (the authors' harness's law): the wheel integrals wound up against each other (front push, "
+        "rear brake); -59 to -65 % power on v_x, two seeds",
+        "residual_energy",
+    ),
+    Lever(
+        "env.predictor.criterion",
+        "kinematic_feasible",
+        _predictive,
+        "among the gaits the kinematic mask leaves, those predicted to track: v_y MSE 0.020 / 0.012 against "
+        "0.049 / 0.070 with the kinematic rule (two seeds, 15 M)",
+        "feasible_selection",
+    ),
+    Lever(
+        "env.predictor.label_command_cut",
+        True,
+        _predictive,
+        "predictor windows that straddle a command resample are dropped: the tracking head's argmin is the best "
+        "tracker in 49 / 46 of 50 energy-map cells (uncut 40 / 21); standing and v_x driven 96-99 %",
+        "feasible_selection",
+    ),
+)
 """The settings beyond the paper of every ``<method>`` task, in the order they were adopted (the levers of the
 former ``--profile select``: issue 21's omnidirectional levers, issue 22's P-only wheels and feasibility-aware
 selection). The cpu reproduction of docs/RESULTS.md ran under exactly these."""

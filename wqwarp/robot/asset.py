@@ -52,8 +52,10 @@ def add_robot(builder: newton.ModelBuilder, usd_path: str | None = None) -> None
     A missing or unreadable asset is a ValueError naming the file."""
     usd_path = usd_path or robot_usd_path()
     if not os.path.isfile(usd_path):
-        raise ValueError(f"robot asset {usd_path} does not exist (regenerate it with tools/build_wheeled_go1.py, or "
-                         "reinstall wqwarp)")  # fmt: skip
+        raise ValueError(
+            f"robot asset {usd_path} does not exist (regenerate it with tools/build_wheeled_go1.py, or "
+            "reinstall wqwarp)"
+        )
     joints = builder.joint_count
     try:
         builder.add_usd(usd_path, enable_self_collisions=False, floating=True)
@@ -61,8 +63,10 @@ def add_robot(builder: newton.ModelBuilder, usd_path: str | None = None) -> None
         detail = " ".join(str(e).split())[:300]  # USD's messages span lines: keep the error to one
         raise ValueError(f"robot asset {usd_path} could not be read: {type(e).__name__}: {detail}") from e
     if builder.joint_count - joints < len(C.ACTUATED_JOINT_NAMES):
-        raise ValueError(f"robot asset {usd_path} holds {builder.joint_count - joints} joints; the wheeled Go1 has "
-                         f"{len(C.ACTUATED_JOINT_NAMES)} actuated ones")  # fmt: skip
+        raise ValueError(
+            f"robot asset {usd_path} holds {builder.joint_count - joints} joints; the wheeled Go1 has "
+            f"{len(C.ACTUATED_JOINT_NAMES)} actuated ones"
+        )
 
 
 def _builder() -> newton.ModelBuilder:

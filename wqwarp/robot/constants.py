@@ -165,6 +165,7 @@ COLLISION_BODY_NAMES: tuple[str, ...] = ("trunk",) + tuple(
 """Bodies whose ground contact counts as a collision (reward) - index 0, the trunk, also terminates an episode."""
 WHEEL_BODY_NAMES: tuple[str, ...] = tuple(f"{leg}_wheel" for leg in LEG_NAMES)
 
+
 def _asset_dir() -> str:
     """``usd/`` of the ``wqwarp.assets`` package data (the repository's ``assets/usd`` in a source or editable
     install, the installed copy otherwise); the source tree's folder when the package data cannot be resolved."""

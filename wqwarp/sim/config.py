@@ -126,8 +126,11 @@ class SimConfig(CheckedConfig):
         """Counts and steps positive, gains non-negative, the device a Warp device name (at construction)."""
         require(self.num_envs >= 1, "SimConfig.num_envs", f"must be >= 1, got {self.num_envs}")
         require(self.decimation >= 1, "SimConfig.decimation", f"must be >= 1, got {self.decimation}")
-        require(str(self.device) == "cpu" or str(self.device).startswith("cuda"), "SimConfig.device",
-                f"must be cpu or cuda:N, got {self.device!r}")  # fmt: skip
+        require(
+            str(self.device) == "cpu" or str(self.device).startswith("cuda"),
+            "SimConfig.device",
+            f"must be cpu or cuda:N, got {self.device!r}",
+        )
         check_positive(self, "dt", "solver_iterations", "ls_iterations")
         check_positive(self, "leg_kp", "leg_kd", "wheel_kp", "wheel_ki", "wheel_kd", "wheel_i_limit", strict=False)
         for n in ("nthread", "njmax", "nconmax"):

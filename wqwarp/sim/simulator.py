@@ -123,16 +123,37 @@ class Simulator(SimBuffers):
         """Prepared launches of one substep's actuation and power kernels (packed once, replayed every substep)."""
         cfg = self.cfg
         act = actuation.launch_actuation(
-            self.joint_q, self.joint_qd, self.leg_q_target, self.wheel_qd_target, self.torque_limit,
-            self.motor_strength, self.wheel_integral, self.wheel_prev_error, self.joint_torque, self.joint_f,
-            self.coord_index, self.dof_index, leg_kp=cfg.leg_kp, leg_kd=cfg.leg_kd, wheel_kp=cfg.wheel_kp,
-            wheel_ki=cfg.wheel_ki, wheel_kd=cfg.wheel_kd, wheel_i_limit=cfg.wheel_i_limit, dt=cfg.dt,
-            device=self.device, record_cmd=True,
-        )  # fmt: skip
+            self.joint_q,
+            self.joint_qd,
+            self.leg_q_target,
+            self.wheel_qd_target,
+            self.torque_limit,
+            self.motor_strength,
+            self.wheel_integral,
+            self.wheel_prev_error,
+            self.joint_torque,
+            self.joint_f,
+            self.coord_index,
+            self.dof_index,
+            leg_kp=cfg.leg_kp,
+            leg_kd=cfg.leg_kd,
+            wheel_kp=cfg.wheel_kp,
+            wheel_ki=cfg.wheel_ki,
+            wheel_kd=cfg.wheel_kd,
+            wheel_i_limit=cfg.wheel_i_limit,
+            dt=cfg.dt,
+            device=self.device,
+            record_cmd=True,
+        )
         pwr = power.launch_power(
-            self.joint_torque, self.joint_qd, [getattr(self, k) for k in power.POWER_OUTPUTS], self.dof_index,
-            weight=1.0 / cfg.decimation, device=self.device, record_cmd=True,
-        )  # fmt: skip
+            self.joint_torque,
+            self.joint_qd,
+            [getattr(self, k) for k in power.POWER_OUTPUTS],
+            self.dof_index,
+            weight=1.0 / cfg.decimation,
+            device=self.device,
+            record_cmd=True,
+        )
         return [act, pwr]
 
     def actuate_substep(self) -> None:
@@ -150,27 +171,52 @@ class Simulator(SimBuffers):
         self.unstable.zero_()
         self.physics.step_substeps(actuate)
         cfg = self.cfg
-        wp.launch(flag_unstable, dim=self.num_envs, inputs=[self.joint_q, self.joint_qd, self.joint_torque,
-                  cfg.unstable_position_limit, cfg.unstable_velocity_limit], outputs=[self.unstable],
-                  device=self.device)  # fmt: skip
+        wp.launch(
+            flag_unstable,
+            dim=self.num_envs,
+            inputs=[
+                self.joint_q,
+                self.joint_qd,
+                self.joint_torque,
+                cfg.unstable_position_limit,
+                cfg.unstable_velocity_limit,
+            ],
+            outputs=[self.unstable],
+            device=self.device,
+        )
         self._post_step()
 
     def _post_step(self) -> None:
         """Per policy step: contact flags, the project-order joint arrays and the base frame."""
-        wp.launch(_wheel_contact_flags, dim=(self.num_envs, 4), inputs=[self.wheel_force, self.cfg.contact_threshold],
-                  outputs=[self.wheel_contact], device=self.device)  # fmt: skip
+        wp.launch(
+            _wheel_contact_flags,
+            dim=(self.num_envs, 4),
+            inputs=[self.wheel_force, self.cfg.contact_threshold],
+            outputs=[self.wheel_contact],
+            device=self.device,
+        )
         self._refresh_joints()
 
     def _refresh_joints(self) -> None:
         """The project-order joint arrays (``actuated_q``, ``actuated_qd``) and the base frame from Newton's state."""
-        wp.launch(gather_actuated, dim=(self.num_envs, 16), inputs=[self.joint_q, self.joint_qd, self.coord_index,
-                  self.dof_index], outputs=[self.actuated_q, self.actuated_qd], device=self.device)  # fmt: skip
+        wp.launch(
+            gather_actuated,
+            dim=(self.num_envs, 16),
+            inputs=[self.joint_q, self.joint_qd, self.coord_index, self.dof_index],
+            outputs=[self.actuated_q, self.actuated_qd],
+            device=self.device,
+        )
         self._update_base_frame()
 
     def _update_base_frame(self) -> None:
         """Base-frame velocities, projected gravity, height and yaw of every robot from ``joint_q`` / ``joint_qd``."""
-        wp.launch(compute_base_frame, dim=self.num_envs, inputs=[self.joint_q, self.joint_qd],
-                  outputs=[getattr(self, name) for name, _ in BASE_FRAME_OUTPUTS], device=self.device)  # fmt: skip
+        wp.launch(
+            compute_base_frame,
+            dim=self.num_envs,
+            inputs=[self.joint_q, self.joint_qd],
+            outputs=[getattr(self, name) for name, _ in BASE_FRAME_OUTPUTS],
+            device=self.device,
+        )
 
     # --- resets and state writes -----------------------------------------------------------------------------------
     def _ids(self, env_ids) -> wp.array:
@@ -206,8 +252,13 @@ class Simulator(SimBuffers):
             joint_qd = wp.zeros((k, lay.dofs_per_world), dtype=wp.float32, device=self.device)
         self._write_rows(ids, joint_q, joint_qd)
         actuation.launch_reset_wheel_pid(ids, self.wheel_integral, self.wheel_prev_error, self.device)
-        wp.launch(clear_contact_rows, dim=k, inputs=[ids], outputs=[self.wheel_force, self.wheel_contact,
-                  self.body_collision, self.unstable], device=self.device)  # fmt: skip
+        wp.launch(
+            clear_contact_rows,
+            dim=k,
+            inputs=[ids],
+            outputs=[self.wheel_force, self.wheel_contact, self.body_collision, self.unstable],
+            device=self.device,
+        )
         self.physics.reset_rows(ids)
         self._post_step()
 
@@ -230,8 +281,9 @@ class Simulator(SimBuffers):
         k, lay = ids.shape[0], self.layout
         q = self._rows(joint_q, k, lay.coords_per_world, "joint_q")
         qd = self._rows(joint_qd, k, lay.dofs_per_world, "joint_qd")
-        wp.launch(scatter_state_rows, dim=k, inputs=[ids, q, qd], outputs=[self.joint_q, self.joint_qd],
-                  device=self.device)  # fmt: skip
+        wp.launch(
+            scatter_state_rows, dim=k, inputs=[ids, q, qd], outputs=[self.joint_q, self.joint_qd], device=self.device
+        )
         newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state, indices=ids)
         self.physics.state_written(ids)
 

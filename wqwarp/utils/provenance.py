@@ -23,8 +23,11 @@ def git_state() -> dict:
     lines = [ln for ln in status.stdout.splitlines() if ln.strip()]
     # "dirty": anything uncommitted, new files included; "tracked_changes": edits of committed files only (a run
     # that writes several result files into the tree makes the later ones "dirty" with its own output).
-    return {"commit": head.stdout.strip(), "dirty": bool(lines),
-            "tracked_changes": any(not ln.startswith("??") for ln in lines)}  # fmt: skip
+    return {
+        "commit": head.stdout.strip(),
+        "dirty": bool(lines),
+        "tracked_changes": any(not ln.startswith("??") for ln in lines),
+    }
 
 
 def write_result_json(path: str, data: dict, indent: int | None = 2, command: str | None = None) -> None:
@@ -45,5 +48,9 @@ def save_figure(fig, path: str, dpi: int = 100, command: str | None = None) -> N
     source = f"git {git['commit']}{' (dirty)' if git['dirty'] else ''}"
     description = " ".join(sys.argv) if command is None else command
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format=os.path.splitext(path)[1][1:] or "png",
-                    metadata={"Description": description, "Source": source})  # fmt: skip
+        fig.savefig(
+            tmp,
+            dpi=dpi,
+            format=os.path.splitext(path)[1][1:] or "png",
+            metadata={"Description": description, "Source": source},
+        )

@@ -49,8 +49,12 @@ def configure_threads(
     U for ``WqPPO.update_threads`` (``runner.alg``: the PPO update and the fits), P for ``SimConfig.nthread``."""
     import torch
 
-    for name, v in (("threads", threads), ("torch_threads", torch_threads), ("physics_threads", physics_threads),
-                    ("update_threads", update_threads)):  # fmt: skip
+    for name, v in (
+        ("threads", threads),
+        ("torch_threads", torch_threads),
+        ("physics_threads", physics_threads),
+        ("update_threads", update_threads),
+    ):
         if v is not None and v < 1:
             raise ValueError(f"{name.replace('_', '-')} must be >= 1, got {v}")
     t = torch_threads or threads or DEFAULT_TORCH_THREADS

@@ -21,8 +21,10 @@ SKY = (0.86, 0.89, 0.93, 1.0)
 SKY_WALL = 30.0  # distance of the sky wall behind the robot [m]
 SUN = np.array([-0.3, 0.2, -1.0]) / np.linalg.norm([-0.3, 0.2, -1.0])  # sunlight direction
 # Renders one 8x8 image with MuJoCo's Renderer: whether the MUJOCO_GL backend of the environment works here.
-_GL_PROBE = ("import mujoco; m = mujoco.MjModel.from_xml_string('<mujoco/>'); r = mujoco.Renderer(m, 8, 8); "
-             "r.update_scene(mujoco.MjData(m)); r.render(); r.close()")  # fmt: skip
+_GL_PROBE = (
+    "import mujoco; m = mujoco.MjModel.from_xml_string('<mujoco/>'); r = mujoco.Renderer(m, 8, 8); "
+    "r.update_scene(mujoco.MjData(m)); r.render(); r.close()"
+)
 
 
 class RenderSetupError(RuntimeError):
@@ -98,8 +100,11 @@ class PanelRenderer:
         m.geom_size[planes, :2] = 0.0  # drawn without edges
         for g in np.flatnonzero(~planes):  # grey links, dark wheels, an orange trunk
             body = m.body(m.geom_bodyid[g]).name
-            m.geom_rgba[g] = (0.12, 0.12, 0.13, 1.0) if body.endswith("_wheel") else (
-                (0.93, 0.55, 0.16, 1.0) if body.endswith("trunk") else (0.55, 0.58, 0.64, 1.0))  # fmt: skip
+            m.geom_rgba[g] = (
+                (0.12, 0.12, 0.13, 1.0)
+                if body.endswith("_wheel")
+                else ((0.93, 0.55, 0.16, 1.0) if body.endswith("trunk") else (0.55, 0.58, 0.64, 1.0))
+            )
         self.model = m
         self.data = mujoco.MjData(m)
         try:
@@ -111,8 +116,11 @@ class PanelRenderer:
         self.cam = mujoco.MjvCamera()
         self.cam.type = mujoco.mjtCamera.mjCAMERA_FREE
         self.cam.distance, self.cam.elevation = distance, elevation
-        self._tile_geom = (np.array([TILE / 2, TILE / 2, 0.0005]), np.eye(3).reshape(-1),
-                           np.array([0.62, 0.64, 0.68, 1.0], np.float32))  # fmt: skip
+        self._tile_geom = (
+            np.array([TILE / 2, TILE / 2, 0.0005]),
+            np.eye(3).reshape(-1),
+            np.array([0.62, 0.64, 0.68, 1.0], np.float32),
+        )
         self._reach = int(math.ceil((3 * distance + 3) / TILE))
 
     def render(self, qpos: np.ndarray, azimuth_deg: float) -> np.ndarray:
@@ -144,8 +152,14 @@ class PanelRenderer:
             az = math.radians(self.cam.azimuth)
             c, s = math.cos(az), math.sin(az)
             wall = np.array([[-s, 0.0, -c], [c, 0.0, -s], [0.0, -1.0, 0.0]])  # columns: x, y, normal to the camera
-            mj.mjv_initGeom(scn.geoms[scn.ngeom], mj.mjtGeom.mjGEOM_PLANE, np.array([4 * SKY_WALL, 4 * SKY_WALL, 1.0]),
-                            centre + SKY_WALL * np.array([c, s, 0.0]), wall.reshape(-1), rgba)  # fmt: skip
+            mj.mjv_initGeom(
+                scn.geoms[scn.ngeom],
+                mj.mjtGeom.mjGEOM_PLANE,
+                np.array([4 * SKY_WALL, 4 * SKY_WALL, 1.0]),
+                centre + SKY_WALL * np.array([c, s, 0.0]),
+                wall.reshape(-1),
+                rgba,
+            )
             scn.ngeom += 1
         if scn.nlight < len(scn.lights):
             light = scn.lights[scn.nlight]
@@ -195,8 +209,15 @@ class GifWriter:
         self.frames.append(Image.fromarray(frame).convert("P", palette=Image.Palette.ADAPTIVE, colors=256))
 
     def close(self) -> None:
-        self.frames[0].save(self.path, format="GIF", save_all=True, append_images=self.frames[1:],
-                            duration=1000.0 / self.fps, loop=0, optimize=False)  # fmt: skip
+        self.frames[0].save(
+            self.path,
+            format="GIF",
+            save_all=True,
+            append_images=self.frames[1:],
+            duration=1000.0 / self.fps,
+            loop=0,
+            optimize=False,
+        )
 
 
 class Mp4Writer:
@@ -221,5 +242,7 @@ def check_mp4_writer() -> None:
         import imageio  # noqa: F401
         import imageio_ffmpeg  # noqa: F401
     except ImportError as e:
-        raise RenderSetupError(f".mp4 needs imageio and imageio-ffmpeg ({e}): `pip install imageio imageio-ffmpeg` "
-                         "(or `pip install -e .[render]`), or write a .gif") from None  # fmt: skip
+        raise RenderSetupError(
+            f".mp4 needs imageio and imageio-ffmpeg ({e}): `pip install imageio imageio-ffmpeg` "
+            "(or `pip install -e .[render]`), or write a .gif"
+        ) from None

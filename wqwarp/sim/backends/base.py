@@ -50,5 +50,7 @@ class PhysicsBackend(ABC):
     def set_dynamics(self, friction: np.ndarray, damping_ratio: np.ndarray, added_mass: np.ndarray) -> None:
         """Per-robot ground friction [-], contact damping ratio [-] and mass added to the trunk [kg], each (N,)
         float64 (``Simulator.set_dynamics`` maps restitution to the damping ratio)."""
-        raise ValueError(f"backend {self.name!r} does not randomise dynamics (friction, restitution, mass); "
-                         "turn domain randomisation off")  # fmt: skip
+        raise ValueError(
+            f"backend {self.name!r} does not randomise dynamics (friction, restitution, mass); "
+            "turn domain randomisation off"
+        )

@@ -19,8 +19,7 @@ def penalty_physics(model, cfg):
     ``(SolverFeatherstone, CollisionPipeline, Contacts)`` for it."""
     import newton
 
-    for name, value in (("ke", cfg.contact_ke), ("kd", cfg.contact_kd), ("kf", cfg.contact_kf),
-                        ("mu", cfg.contact_mu)):  # fmt: skip
+    for name, value in (("ke", cfg.contact_ke), ("kd", cfg.contact_kd), ("kf", cfg.contact_kf), ("mu", cfg.contact_mu)):
         getattr(model, f"shape_material_{name}").fill_(float(value))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -53,9 +52,23 @@ class FeatherstoneBackend(PhysicsBackend):
         c = self.contacts
         sim.wheel_force.zero_()
         sim.body_collision.zero_()
-        wp.launch(accumulate_penalty_contacts, dim=c.rigid_contact_max,
-                  inputs=[c.rigid_contact_count, c.rigid_contact_shape0, c.rigid_contact_shape1,
-                          c.rigid_contact_point0, c.rigid_contact_point1, c.rigid_contact_normal,
-                          c.rigid_contact_margin0, c.rigid_contact_margin1, st.body_q, sim.model.shape_body,
-                          self._slots, float(sim.cfg.contact_ke)],
-                  outputs=[sim.wheel_force, sim.body_collision], device=sim.device)  # fmt: skip
+        wp.launch(
+            accumulate_penalty_contacts,
+            dim=c.rigid_contact_max,
+            inputs=[
+                c.rigid_contact_count,
+                c.rigid_contact_shape0,
+                c.rigid_contact_shape1,
+                c.rigid_contact_point0,
+                c.rigid_contact_point1,
+                c.rigid_contact_normal,
+                c.rigid_contact_margin0,
+                c.rigid_contact_margin1,
+                st.body_q,
+                sim.model.shape_body,
+                self._slots,
+                float(sim.cfg.contact_ke),
+            ],
+            outputs=[sim.wheel_force, sim.body_collision],
+            device=sim.device,
+        )

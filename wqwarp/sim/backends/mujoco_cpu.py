@@ -78,8 +78,9 @@ class MujocoCpuBackend(PhysicsBackend):
         mujoco.mj_getState(m, d, init, self.state_spec)
         for s in self._mj_state:
             s[:] = init
-        self._mj_state_wp = [wp.array(s.reshape(n, nstate), dtype=wp.float64, device="cpu", copy=False)
-                             for s in self._mj_state]  # fmt: skip
+        self._mj_state_wp = [
+            wp.array(s.reshape(n, nstate), dtype=wp.float64, device="cpu", copy=False) for s in self._mj_state
+        ]
         self._parity = 0
         self._mj_control = np.zeros((n, 1, m.nv))
         self._sensordata = np.zeros((n, 1, m.nsensordata))
@@ -92,10 +93,16 @@ class MujocoCpuBackend(PhysicsBackend):
         self._qfrc_spec = mujoco.mjtState.mjSTATE_QFRC_APPLIED.value
         # Mirror MuJoCo state -> Newton joint_q / joint_qd, one prepared launch per state buffer.
         self._mirror_cmds = [
-            wp.launch(mujoco_state_to_newton, dim=n, inputs=[s, self._qpos_start, self._root_com],
-                      outputs=[sim.joint_q, sim.joint_qd], device=sim.device, record_cmd=True)
+            wp.launch(
+                mujoco_state_to_newton,
+                dim=n,
+                inputs=[s, self._qpos_start, self._root_com],
+                outputs=[sim.joint_q, sim.joint_qd],
+                device=sim.device,
+                record_cmd=True,
+            )
             for s in self._mj_state_wp
-        ]  # fmt: skip
+        ]
 
     def current_state(self) -> np.ndarray:
         """(N, nstate) view of every robot's MuJoCo state now (``state_spec`` signature)."""
@@ -116,24 +123,39 @@ class MujocoCpuBackend(PhysicsBackend):
             self._mj_control[:, 0, :] = self._joint_f_np
             src, dst = self._mj_state[self._parity], self._mj_state[1 - self._parity]
             self.rollout.rollout(
-                self.mj_models, self._mj_datas, src[:, 0, :], self._mj_control, control_spec=self._qfrc_spec,
-                nstep=1, state=dst, sensordata=self._sensordata, skip_checks=True,
-            )  # fmt: skip
+                self.mj_models,
+                self._mj_datas,
+                src[:, 0, :],
+                self._mj_control,
+                control_spec=self._qfrc_spec,
+                nstep=1,
+                state=dst,
+                sensordata=self._sensordata,
+                skip_checks=True,
+            )
             # MuJoCo resets the data of a diverged robot inside the step (a warning, time restarts at 0): its time
             # then falls behind. Flag it; the simulator's check after the loop adds non-finite and exploding states.
             self._unstable_np |= dst[:, 0, 0] < src[:, 0, 0]
             self._parity = 1 - self._parity
             self._mirror_cmds[self._parity].launch()
         newton.eval_fk(sim.model, sim.state.joint_q, sim.state.joint_qd, sim.state)
-        wp.launch(contacts_from_sensordata, dim=sim.num_envs, inputs=[self._sensordata_wp, self._wheel_found_wp,
-                  self._body_found_wp], outputs=[sim.wheel_force, sim.body_collision],
-                  device=sim.device)  # fmt: skip
+        wp.launch(
+            contacts_from_sensordata,
+            dim=sim.num_envs,
+            inputs=[self._sensordata_wp, self._wheel_found_wp, self._body_found_wp],
+            outputs=[sim.wheel_force, sim.body_collision],
+            device=sim.device,
+        )
 
     def state_written(self, env_ids: wp.array) -> None:
         sim = self.sim
-        wp.launch(newton_state_to_mujoco, dim=env_ids.shape[0], inputs=[sim.joint_q, sim.joint_qd, env_ids,
-                  self._qpos_start, self._root_com], outputs=[self._mj_state_wp[self._parity]],
-                  device=sim.device)  # fmt: skip
+        wp.launch(
+            newton_state_to_mujoco,
+            dim=env_ids.shape[0],
+            inputs=[sim.joint_q, sim.joint_qd, env_ids, self._qpos_start, self._root_com],
+            outputs=[self._mj_state_wp[self._parity]],
+            device=sim.device,
+        )
 
     def set_dynamics(self, friction: np.ndarray, damping_ratio: np.ndarray, added_mass: np.ndarray) -> None:
         base = self.mj_model
@@ -163,8 +185,13 @@ def _template_mj_model(cfg):
         warnings.simplefilter("ignore")
         log.setLevel(logging.WARNING)  # Newton logs the temporary MJCF path at INFO
         path = os.path.join(tmp, "wheeled_go1.xml")
-        newton.solvers.SolverMuJoCo(template, use_mujoco_cpu=True, save_to_mjcf=path,
-                                    iterations=cfg.solver_iterations, ls_iterations=cfg.ls_iterations)  # fmt: skip
+        newton.solvers.SolverMuJoCo(
+            template,
+            use_mujoco_cpu=True,
+            save_to_mjcf=path,
+            iterations=cfg.solver_iterations,
+            ls_iterations=cfg.ls_iterations,
+        )
         spec = mujoco.MjSpec.from_file(path)
         log.setLevel(level)
     wheel_cols, body_cols = _add_contact_sensors(spec, mujoco)
@@ -190,17 +217,25 @@ def _add_contact_sensors(spec, mujoco) -> tuple[list[int], list[int]]:
     col = 0
     wheel_cols, body_cols = [], []
     for name in C.WHEEL_BODY_NAMES:
-        s = spec.add_sensor(type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mujoco.mjtObj.mjOBJ_GEOM,
-                            objname=find_geom(name), reftype=mujoco.mjtObj.mjOBJ_GEOM, refname=ground)  # fmt: skip
+        s = spec.add_sensor(
+            type=mujoco.mjtSensor.mjSENS_CONTACT,
+            objtype=mujoco.mjtObj.mjOBJ_GEOM,
+            objname=find_geom(name),
+            reftype=mujoco.mjtObj.mjOBJ_GEOM,
+            refname=ground,
+        )
         s.intprm[0:3] = [found | force, netforce, 1]
         s.name = f"contact_{name}"
         wheel_cols.append(col)
         col += 4
     for name in C.COLLISION_BODY_NAMES:
         s = spec.add_sensor(
-            type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mujoco.mjtObj.mjOBJ_BODY, objname=f"_wheeled_go1_{name}",
-            reftype=mujoco.mjtObj.mjOBJ_GEOM, refname=ground,
-        )  # fmt: skip
+            type=mujoco.mjtSensor.mjSENS_CONTACT,
+            objtype=mujoco.mjtObj.mjOBJ_BODY,
+            objname=f"_wheeled_go1_{name}",
+            reftype=mujoco.mjtObj.mjOBJ_GEOM,
+            refname=ground,
+        )
         s.intprm[0:3] = [found, 0, 1]
         s.name = f"contact_{name}"
         body_cols.append(col)

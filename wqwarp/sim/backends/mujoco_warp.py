@@ -35,9 +35,13 @@ class MujocoWarpBackend(PhysicsBackend):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             self.solver = newton.solvers.SolverMuJoCo(
-                sim.model, separate_worlds=True, iterations=cfg.solver_iterations, ls_iterations=cfg.ls_iterations,
-                njmax=cfg.njmax, nconmax=cfg.nconmax,
-            )  # fmt: skip
+                sim.model,
+                separate_worlds=True,
+                iterations=cfg.solver_iterations,
+                ls_iterations=cfg.ls_iterations,
+                njmax=cfg.njmax,
+                nconmax=cfg.nconmax,
+            )
         self.contacts = newton.Contacts(self.solver.get_max_contact_count(), 0, device=sim.device)
         kinds = {newton.solvers.SolverBase.ObservableKind.CONTACT_F}
         self.observables = self.solver.observables(kinds, contacts=self.contacts)
@@ -52,16 +56,24 @@ class MujocoWarpBackend(PhysicsBackend):
         for _ in range(sim.cfg.decimation):
             if actuate:
                 sim.actuate_substep()
-            self.solver.step(sim.state, sim.state, sim.control, self.contacts, sim.cfg.dt,
-                             observables=self.observables)  # fmt: skip
+            self.solver.step(sim.state, sim.state, sim.control, self.contacts, sim.cfg.dt, observables=self.observables)
         self.solver.update_contacts(self.contacts)
         sim.wheel_force.zero_()
         sim.body_collision.zero_()
         c = self.contacts
-        wp.launch(accumulate_newton_contacts, dim=c.rigid_contact_max,
-                  inputs=[c.rigid_contact_count, c.rigid_contact_shape0, c.rigid_contact_shape1,
-                          self.observables.contact_f, self._slots],
-                  outputs=[sim.wheel_force, sim.body_collision], device=sim.device)  # fmt: skip
+        wp.launch(
+            accumulate_newton_contacts,
+            dim=c.rigid_contact_max,
+            inputs=[
+                c.rigid_contact_count,
+                c.rigid_contact_shape0,
+                c.rigid_contact_shape1,
+                self.observables.contact_f,
+                self._slots,
+            ],
+            outputs=[sim.wheel_force, sim.body_collision],
+            device=sim.device,
+        )
 
     def step_substeps(self, actuate: bool) -> None:
         if not (self._use_graph and actuate):
@@ -79,8 +91,9 @@ class MujocoWarpBackend(PhysicsBackend):
         # clear MuJoCo's warm start and applied forces: after a divergence (NaN) they would poison the next step
         # even from a clean state
         self._reset_mask.zero_()
-        wp.launch(_mask_from_ids, dim=env_ids.shape[0], inputs=[env_ids], outputs=[self._reset_mask],
-                  device=self.sim.device)  # fmt: skip
+        wp.launch(
+            _mask_from_ids, dim=env_ids.shape[0], inputs=[env_ids], outputs=[self._reset_mask], device=self.sim.device
+        )
         self.solver.reset(self.sim.state, self._reset_mask, flags=0)
 
     def set_dynamics(self, friction: np.ndarray, damping_ratio: np.ndarray, added_mass: np.ndarray) -> None:
