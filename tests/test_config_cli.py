@@ -437,3 +437,39 @@ def test_tyro_errors_become_one_line_in_either_box_style():
     two = "Unrecognized options: --env.sim.dtt, 3 (did you mean --env.sim.dt?) (see --help)"
     assert tyro_error_line(ASCII_BOX) == two
     assert tyro_error_line("") == "invalid command line (see --help)"
+
+
+def test_resuming_with_no_option_continues_with_the_checkpoints_own_configuration(tmp_path, capsys):
+    """``--resume CKPT`` alone: the run's non-default options (robots, a reward weight, the PPO settings stored in the
+    checkpoint) come back; an option beside it overrides and is listed; a checkpoint without PPO settings takes its
+    run's config.json; resuming in the folder of later checkpoints, which it would write over, is refused."""
+    import helpers
+
+    from wqwarp.cli.train import main as train_main
+
+    runner = helpers.task_runner(
+        "ours-paper", num_envs=4, seed=1, steps_per_env=8, overrides={"env.reward.energy": -3e-5}
+    )
+    runner.train_config = to_dict(TrainConfig(save_interval=7, max_iterations=9, num_steps_per_env=8))
+    ckpt = str(tmp_path / "model_2.pt")
+    runner.save(ckpt)
+    args = _parse("--resume", ckpt)
+    assert args.task == "ours-paper" and args.overrides == {} and args.env.sim.num_envs == 4
+    assert args.env.reward.energy == -3e-5 and (args.train.save_interval, args.train.max_iterations) == (7, 9)
+    args = _parse("--resume", ckpt, "--seed", "9", "--env.sim.num-envs", "4")
+    assert args.overrides == {"env.seed": 9}  # only what differs from the checkpoint's configuration
+    with pytest.raises(UsageError, match="was trained as ours-paper, not as task ours"):
+        _parse("ours", "--resume", ckpt)
+
+    runner.train_config = None  # a checkpoint written before the PPO settings were stored in it
+    old = tmp_path / "old"
+    old.mkdir()
+    runner.save(str(old / "model_2.pt"))
+    with pytest.raises(UsageError, match="no PPO settings in it nor a readable config.json"):
+        _parse("--resume", str(old / "model_2.pt"))
+    (old / "config.json").write_text(json.dumps({"train": to_dict(TrainConfig(save_interval=5))}))
+    assert _parse("--resume", str(old / "model_2.pt")).train.save_interval == 5
+
+    runner.save(str(tmp_path / "model_5.pt"))
+    assert train_main(["--resume", ckpt, "--no-export"]) == 2
+    assert "its folder holds later checkpoints (model_5.pt)" in capsys.readouterr().err

@@ -43,12 +43,27 @@ def check_writable_dir(d: str, what: str) -> None:
         raise UsageError(f"{what} {d!r} {problem}")
 
 
+def later_checkpoints(path: str) -> list[str]:
+    """The checkpoints beside ``path`` of a later iteration (a run resumed from ``path`` in its folder would write
+    over them)."""
+    it, d = checkpoint_iteration(path), os.path.dirname(os.path.abspath(path))
+    if it is None:
+        return []
+    names = [f for f in os.listdir(d) if f.startswith("model_") and f.endswith(".pt")]
+    return sorted(f for f in names if (k := checkpoint_iteration(f)) is not None and k > it)
+
+
 def resolve_log_dir(args) -> str:
     run = args.command
-    if run.log_dir is None and run.resume is not None:  # continue where the checkpoint is
-        d = os.path.dirname(os.path.abspath(run.resume))
-        check_writable_dir(d, "the checkpoint's folder")
-        return d
+    here = os.path.dirname(os.path.abspath(run.resume)) if run.resume is not None else None
+    if here is not None and (run.log_dir is None or os.path.abspath(run.log_dir) == here):
+        check_writable_dir(here, "the checkpoint's folder")  # continue where the checkpoint is
+        if later := later_checkpoints(run.resume):
+            raise UsageError(
+                f"--resume {run.resume}: its folder holds later checkpoints ({', '.join(later[:3])}) that the run "
+                "would write over; resume from the last one or pass another --log-dir"
+            )
+        return here
     if run.log_dir is None:
         stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
         d = os.path.join("runs", f"{args.task}_{stamp}")
