@@ -47,3 +47,25 @@ def test_the_same_seed_gives_the_same_evaluation(tmp_path, save_checkpoint):
     first, again, other = evaluate(3), evaluate(3), evaluate(4)
     assert first == again
     assert first != other
+
+
+def test_the_physics_thread_count_does_not_change_a_rollout():
+    """``mujoco.rollout`` splits the robots over its threads; each robot's physics is its own, so 1 and 2 threads give
+    the same rollout bit for bit (a training and its evaluation may use different thread counts: issue 47 asked
+    whether that is why a policy that trained without falls fell in evaluation; it is not)."""
+    from wqwarp.rl.env import WheeledGo1Env
+    from wqwarp.rl.tasks import TASKS
+
+    rewards, states = {}, {}
+    for threads in (1, 2):
+        cfg, _ = TASKS["ours"].make()
+        cfg.sim.num_envs, cfg.sim.nthread, cfg.seed = 16, threads, 3
+        torch.manual_seed(3)
+        env = WheeledGo1Env(cfg)
+        gen = torch.Generator().manual_seed(0)
+        rewards[threads] = torch.stack(
+            [env.step(0.3 * torch.randn(16, env.num_actions, generator=gen))[1].clone() for _ in range(60)]
+        )
+        states[threads] = env.get_observations()["privileged"].clone()
+    assert torch.equal(rewards[1], rewards[2]) and torch.equal(states[1], states[2])
+    assert rewards[1].abs().sum() > 0
