@@ -7,7 +7,7 @@ S=$1
 RUN=${RUN:-runs/i47/ours_s$S}
 O=docs/studies/skill_every_seed
 . .venv/bin/activate
-for IT in 2400 4882; do
+for IT in ${ITS:-2400 4882}; do
   C=$RUN/model_$IT.pt
   python train/evaluate.py --checkpoint $C --preset ours --tasks stand,vx,vy,wz --num-envs 100 --seconds 20 --seed 1 \
     --json $O/ours_s${S}_it${IT}_tracking.json
