@@ -24,11 +24,6 @@ class UsageError(ValueError):
     line ``error: <message>`` and exits with :data:`USAGE_EXIT`, before any work and without touching any output."""
 
 
-def fail_usage(message: str) -> None:
-    """Print ``error: message`` on one line to stderr (what :func:`entry_point` does with a :class:`UsageError`)."""
-    print(f"error: {message}", file=sys.stderr, flush=True)
-
-
 def entry_point(main: Callable[..., int | None]) -> Callable[..., int]:
     """Decorator of a command's ``main(argv=None) -> exit code``: a :class:`UsageError` raised anywhere in it
     becomes one line on stderr and exit code 2; ``None`` returns 0."""
@@ -38,7 +33,7 @@ def entry_point(main: Callable[..., int | None]) -> Callable[..., int]:
         try:
             code = main(*args, **kwargs)
         except UsageError as e:
-            fail_usage(str(e))
+            print(f"error: {' '.join(str(e).split())}", file=sys.stderr, flush=True)  # one line, whatever it holds
             return USAGE_EXIT
         return 0 if code is None else int(code)
 

@@ -204,19 +204,13 @@ def checkpoint_config(path: str) -> tuple[EnvConfig, TrainConfig, list[str]]:
     """The env and PPO configuration a checkpoint was trained with (its ``infos``; for a checkpoint written before
     the PPO settings were stored there: its run's ``config.json``), and the migration notes (fields filled for a
     checkpoint older than them). UsageError naming the file when it has none."""
-    import torch
+    from wqwarp.eval.loading import checkpoint_infos
 
     if not os.path.isfile(path):
         raise UsageError(f"--resume: no such checkpoint {path!r}")
-    try:
-        ckpt = torch.load(path, weights_only=False, map_location="cpu")
-    except Exception as e:  # noqa: BLE001 - a truncated or foreign file raises many types
-        raise UsageError(f"--resume {path}: not a readable checkpoint ({type(e).__name__})") from None
-    infos = (ckpt.get("infos") or {}) if isinstance(ckpt, dict) else {}
-    if not isinstance(infos.get("env_cfg"), dict):
-        raise UsageError(f"--resume {path}: holds no wqwarp configuration (not written by train/ppo_newton.py?)")
     notes: list[str] = []
     try:
+        infos = checkpoint_infos(path)
         env = env_config_from_dict(infos["env_cfg"], notes)
         train_dict = infos.get("train_cfg")
         if train_dict is None:
@@ -228,7 +222,7 @@ def checkpoint_config(path: str) -> tuple[EnvConfig, TrainConfig, list[str]]:
     except (OSError, KeyError, json.JSONDecodeError) as e:
         raise UsageError(f"--resume {path}: no PPO settings in it nor a readable config.json beside it ({e})") from None
     except ValueError as e:
-        raise UsageError(f"--resume {path}: {e}") from None
+        raise UsageError(f"--resume: {e}" if path in str(e) else f"--resume {path}: {e}") from None
     return env, train, notes
 
 

@@ -47,16 +47,23 @@ def checkpoint_preset(path: str) -> str | None:
     return None
 
 
-def checkpoint_env_config(path: str) -> EnvConfig:
-    """The environment configuration a checkpoint was trained with (its ``infos['env_cfg']``), read whole
-    (``wqwarp.rl.config.from_dict``); ValueError if the file records none or one this version cannot read."""
+def checkpoint_infos(path: str) -> dict:
+    """A checkpoint's ``infos`` (what ``WqRunner.save`` records beside the networks: ``env_cfg``, ``train_cfg``,
+    layout, random streams); ValueError if the file is unreadable or records no environment configuration."""
     try:
         ckpt = torch.load(path, map_location="cpu", weights_only=False)
     except Exception as e:  # noqa: BLE001 - pickle, zip and EOF errors all mean the same to the user
         raise ValueError(f"{path} is not a readable checkpoint ({type(e).__name__}: {e})") from None
     infos = (ckpt.get("infos") or {}) if isinstance(ckpt, dict) else {}
-    if not isinstance(infos, dict) or "env_cfg" not in infos:
+    if not isinstance(infos, dict) or not isinstance(infos.get("env_cfg"), dict):
         raise ValueError(f"{path} records no environment configuration (not a wqwarp checkpoint, or an old one)")
+    return infos
+
+
+def checkpoint_env_config(path: str) -> EnvConfig:
+    """The environment configuration a checkpoint was trained with (its ``infos['env_cfg']``), read whole
+    (``wqwarp.rl.config.from_dict``); ValueError if the file records none or one this version cannot read."""
+    infos = checkpoint_infos(path)
     migrated: list[str] = []
     try:
         cfg = env_config_from_dict(infos["env_cfg"], migrated)

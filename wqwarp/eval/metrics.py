@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import torch
 
+from wqwarp.kernels.power import REPORTED_POWER
+
 TASKS = {"vx": (0, (-1.0, 1.0)), "vy": (1, (-0.7, 0.7)), "wz": (2, (-0.7, 0.7)), "stand": (0, (0.0, 0.0))}
 """Task -> (command axis, range) of the paper's tracking evaluation (Sec. IV-A)."""
 
@@ -27,15 +29,7 @@ w each in [-1, 1])."""
 
 MIN_COT_SPEED = 0.1
 """Mean planar speed [m/s] below which no cost of transport is reported."""
-POWER_KEYS = (
-    "p_cost",
-    "p_cost_legs",
-    "p_cost_wheels",
-    "p_mech_legs",
-    "p_mech_wheels",
-    "p_joule_legs",
-    "p_joule_wheels",
-)
+POWER_KEYS = REPORTED_POWER
 """Per-robot power outputs of the simulator (``env.tv``) that a task averages [W]."""
 
 

@@ -183,7 +183,7 @@ def _train_info(work: str, preset: str, seed: int, done: bool) -> dict:
     return info
 
 
-def run_task(work: str, task: str, seed: int) -> str | None:
+def trained_task(work: str, task: str, seed: int) -> str | None:
     """The task a reproduction's training ran as (its ``config.json``; :func:`config_task`), None without a record."""
     cfg = read_json(os.path.join(work, "train", f"{task}_s{seed}", "config.json"))
     return None if cfg is None else config_task(cfg)
@@ -210,13 +210,14 @@ def write_report(
     out: str,
     budget_name: str,
     budget,
-    presets: list[str],
+    tasks: list[str],
     seeds: list[int],
     wall_s: float,
     trained: set[tuple[str, int]],
 ) -> dict:
-    """Write ``out/RESULTS.md`` and ``out/results/<budget>/`` (results.json, the evaluation JSONs, PNGs); ``trained``
-    holds the (preset, seed) whose training is done (``wqwarp.eval.reproduce.trained``): the others are listed in
+    """Write ``out/RESULTS.md`` and ``out/results/<budget>/`` (results.json, the evaluation JSONs, PNGs) for the
+    ``tasks`` (one per method: files are named by task, the page by method); ``trained`` holds the (task, seed) whose
+    training is done (``wqwarp.eval.reproduce.trained``): the others are listed in
     progress, nothing of them recorded."""
     from dataclasses import asdict
 
@@ -226,7 +227,7 @@ def write_report(
     git = git_state()  # before this report writes anything
     res_dir = os.path.join(out, "results", budget_name)
     os.makedirs(res_dir, exist_ok=True)
-    tasks, presets = presets, [method_of(t) for t in presets]  # files are named by task, the page by method
+    presets = [method_of(t) for t in tasks]
     data = collect(work, tasks, seeds)
     data["presets"] = {method_of(t): entry for t, entry in data["presets"].items()}
     figures = {}
@@ -265,7 +266,7 @@ def write_report(
     for name in copied:
         if name.endswith(".json"):
             eval_s += float(read_json(os.path.join(res_dir, name)).get("wall_time_s") or 0.0)
-    trained_as = list(dict.fromkeys(x for p in tasks for sd in seeds if (x := run_task(work, p, sd))))
+    trained_as = list(dict.fromkeys(x for p in tasks for sd in seeds if (x := trained_task(work, p, sd))))
     training = {method_of(t): per_seed for t, per_seed in training.items()}
     summary = {
         "budget": budget_name,

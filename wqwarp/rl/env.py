@@ -25,6 +25,7 @@ from tensordict import TensorDict
 from wqwarp.control.gaits import gait_index
 from wqwarp.control.nominal import NominalGait
 from wqwarp.kernels.actions import joint_offset_targets, residual_targets
+from wqwarp.kernels.power import POWER_OUTPUTS, REPORTED_POWER
 from wqwarp.kernels.rewards import RewardInputs, make_reward_kernel
 from wqwarp.rl import events
 from wqwarp.rl import observations as obs_terms
@@ -401,15 +402,7 @@ class WheeledGo1Env(VecEnv):
         err = torch.abs(b["lin_vel"][:, :2] - self.commands[:, :2])
         werr = torch.abs(b["ang_vel"][:, 2] - self.commands[:, 2])
         out = {"Metrics/vx_error": mean(err[:, 0]), "Metrics/vy_error": mean(err[:, 1]), "Metrics/wz_error": mean(werr)}
-        for k in (
-            "p_cost",
-            "p_cost_legs",
-            "p_cost_wheels",
-            "p_mech_legs",
-            "p_mech_wheels",
-            "p_joule_legs",
-            "p_joule_wheels",
-        ):
+        for k in REPORTED_POWER:
             out[f"Metrics/{k}"] = mean(self.tv[k])
         label = self.gait_selector.label_robots
         if label is not None:  # what exploration costs: the same selection, with and without the action noise
@@ -441,19 +434,7 @@ class WheeledGo1Env(VecEnv):
         writes: no host synchronisation on CUDA)."""
         self.unstable_count += unstable.sum()
         rewards.masked_fill_(unstable, 0.0)
-        for k in (
-            "p_cost",
-            "p_mech",
-            "p_joule",
-            "p_cost_legs",
-            "p_cost_wheels",
-            "p_mech_legs",
-            "p_mech_wheels",
-            "p_joule_legs",
-            "p_joule_wheels",
-            "torque_sq",
-            "power_sq",
-        ):
+        for k in POWER_OUTPUTS:
             self.tv[k].masked_fill_(unstable, 0.0)
         self.episode_sums.masked_fill_(unstable[:, None], 0.0)
 

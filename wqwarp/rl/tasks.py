@@ -158,11 +158,6 @@ class Task:
         """The method's :class:`~wqwarp.rl.presets.Preset` (paper label, selector, reproduction stages)."""
         return PRESETS[self.method]
 
-    @property
-    def paper_label(self) -> str:
-        """The method's name in the paper's tables."""
-        return self.preset.paper_label
-
     def overrides(self) -> dict[str, object]:
         """Dotted path -> value of this task over the method's config: the levers that apply, then the budget."""
         env = make_preset(self.method)
@@ -188,13 +183,6 @@ TASKS: dict[str, Task] = _tasks()
 """Task id -> :class:`Task`: each method's recipe, then its paper variant, in the paper's method order."""
 DEFAULT_TASK = "ours"
 """The task of ``python train/ppo_newton.py`` with no task id."""
-
-
-def task(name: str) -> Task:
-    """The task ``name``; ValueError naming the known ids otherwise."""
-    if name not in TASKS:
-        raise ValueError(f"unknown task {name!r}; tasks: {', '.join(TASKS)}")
-    return TASKS[name]
 
 
 def task_help() -> str:
