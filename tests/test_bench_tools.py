@@ -23,6 +23,10 @@ def test_bench_train_json_rates_and_breakdown(tmp_path):
             "0.2",
             "--threads",
             "1",
+            "--num-learning-epochs",
+            "2",
+            "--num-mini-batches",
+            "1",
             "--json",
             str(out),
         ]
@@ -33,6 +37,7 @@ def test_bench_train_json_rates_and_breakdown(tmp_path):
     assert data["git"]["commit"] and data["command"]
     (r,) = data["results"]
     assert r["n"] == 4 and set(r["breakdown_s"]) == set(bench_train.STAGES)
+    assert (r["num_learning_epochs"], r["num_mini_batches"]) == (2, 1)  # the options, over the task's 5 x 4
     for k in ("sim_steps_per_s", "collect_steps_per_s", "train_steps_per_s"):
         assert r[k] > 0
     assert r["train_vs_sim"] == pytest.approx(r["train_steps_per_s"] / r["sim_steps_per_s"], abs=1e-3)
@@ -44,7 +49,14 @@ def test_bench_train_json_rates_and_breakdown(tmp_path):
 
 @pytest.mark.parametrize(
     "argv",
-    [["--sizes", "0"], ["--sizes", "a"], ["--threads", "0"], ["--task", "nope"], ["--json", "/no/such/dir/x.json"]],
+    [
+        ["--sizes", "0"],
+        ["--sizes", "a"],
+        ["--threads", "0"],
+        ["--task", "nope"],
+        ["--num-learning-epochs", "0"],
+        ["--json", "/no/such/dir/x.json"],
+    ],
 )
 def test_bench_train_bad_input_exits_2(argv, capsys):
     assert bench_train.main(argv) == 2

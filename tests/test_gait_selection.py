@@ -260,6 +260,38 @@ def test_the_kinematic_criterion_keeps_lateral_commands_off_the_gait_without_swi
     assert sel.kinematic_candidates(turns)[:, 1:].all()
 
 
+def test_exploration_picks_uniformly_among_the_kinematic_candidates_in_training_only():
+    # Power makes walking the certain choice (tau small); with explore_fraction 0.3 a lateral command goes to each
+    # of the two stepping gaits with probability 0.15 by exploration (never to driving, which the kinematic mask
+    # forbids), so trotting gets 0.15 and walking 0.85; a forward command explores over all three (0.1 each).
+    from wqwarp.rl.config import EnvConfig
+    from wqwarp.rl.gait_selection import make_gait_selector
+
+    cfg = EnvConfig()
+    cfg.gait.selection, cfg.predictor.criterion = "predictive", "kinematic"
+    cfg.predictor.temperature_start = cfg.predictor.temperature_end = 0.01
+    cfg.predictor.explore_fraction = 0.3
+    n = 40000
+    sel = make_gait_selector(cfg, torch.zeros(n, dtype=torch.int32), GAITS, 1, 0.02, obs_dim=2)
+    sel.training = True
+    _constant_power(sel, [1.0, 9.0, 5.0])
+    cmd = torch.zeros(n, 3)
+    cmd[: n // 2, 1] = 0.4
+    cmd[n // 2 :, 0] = 0.8
+    sel.select(torch.zeros(n, 2), torch.ones(n, dtype=torch.long), cmd)
+    m = n // 2
+    for rows, expect in ((slice(0, m), [0.0, 0.15, 0.85]), (slice(m, n), [0.8, 0.1, 0.1])):
+        freq = torch.bincount(sel.requested[rows].long(), minlength=3).double() / m
+        p = torch.tensor(expect, dtype=torch.float64)
+        assert torch.all((freq - p).abs() <= 4.5 * torch.sqrt(p * (1 - p) / m) + 1e-12), (freq, p)
+    assert sel.log_scalars()["Gait/explored_share"] == pytest.approx(0.3, abs=0.02)
+    sel.training = False  # evaluation: the argmin, never explored
+    sel.request_selection()
+    sel.select(torch.zeros(n, 2), torch.ones(n, dtype=torch.long), cmd)
+    assert (sel.requested[:m] == 2).all() and (sel.requested[m:] == 0).all()
+    assert PredictorConfig().explore_fraction == 0.0  # off by default (tests/test_behaviour_reference.py: unchanged)
+
+
 def test_kinematic_feasible_sends_a_lateral_command_to_the_cheapest_stepping_gait_predicted_to_track():
     # Predicted squared errors: driving 0.01 (it stands still, and standing is what the head saw), trotting 0.05,
     # walking 0.12; power: driving 1, trotting 9, walking 5. Each criterion's argmin for a lateral command:

@@ -191,19 +191,23 @@ def bench(n: int, args, threads: dict) -> dict:
     import torch
     import warp as wp
 
-    from wqwarp.rl.config import TrainConfig
     from wqwarp.rl.env import WheeledGo1Env
     from wqwarp.rl.runner import WqRunner
     from wqwarp.rl.tasks import TASKS
 
-    cfg, _ = TASKS[args.task].make()
+    cfg, train = TASKS[args.task].make()
     cfg.sim.num_envs = n
     cfg.sim.device = args.device
     cfg.sim.nthread = threads["physics"]
     cfg.seed = args.seed
     torch.manual_seed(args.seed)
     env = WheeledGo1Env(cfg)
-    train_cfg = TrainConfig(num_steps_per_env=args.steps_per_env, algorithm_class=f"{__name__}:TimedPPO").rsl_rl_dict()
+    train.num_steps_per_env = args.steps_per_env
+    train.algorithm_class = f"{__name__}:TimedPPO"
+    for name in ("num_learning_epochs", "num_mini_batches"):
+        if getattr(args, name) is not None:
+            setattr(train, name, getattr(args, name))
+    train_cfg = train.rsl_rl_dict()
     with contextlib.redirect_stdout(io.StringIO()):
         runner = WqRunner(env, train_cfg, log_dir=None, device=env.device)
     runner.alg.update_threads = threads["update"]
@@ -262,6 +266,8 @@ def bench(n: int, args, threads: dict) -> dict:
     sim_sps = n * timed(sim.step, args.seconds)
     return {
         "n": n,
+        "num_learning_epochs": train.num_learning_epochs,
+        "num_mini_batches": train.num_mini_batches,
         "sim_steps_per_s": round(sim_sps, 1),
         "collect_steps_per_s": round(collect_sps, 1),
         "train_steps_per_s": round(train_sps, 1),
@@ -303,10 +309,22 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="torch threads during the PPO update and fits (overrides --threads)",
     )
+    ap.add_argument(
+        "--num-learning-epochs",
+        type=int,
+        default=None,
+        help="PPO epochs per update (default: the task's, --train.num-learning-epochs of train/ppo_newton.py)",
+    )
+    ap.add_argument(
+        "--num-mini-batches",
+        type=int,
+        default=None,
+        help="PPO minibatches per epoch (default: the task's, --train.num-mini-batches)",
+    )
     ap.add_argument("--busy", type=int, default=0, help="processes spinning one core each while measuring (default 0)")
     ap.add_argument("--seed", type=int, default=1, help="seed of the env and the networks (default 1)")
     args, sizes = parse_bench_args(ap, argv)
-    for name in ("iterations", "steps_per_env"):
+    for name in ("iterations", "steps_per_env", "num_learning_epochs", "num_mini_batches"):
         v = getattr(args, name)
         if v is not None and v < 1:
             raise UsageError(f"--{name.replace('_', '-')} must be >= 1, got {v}")

@@ -302,6 +302,16 @@ class PredictorConfig(CheckedConfig):
     made the selection an argmin of the predicted error (1.0-1.1 candidates per selection) and sent 90-100 % of the
     lateral commands to driving by iteration 600. The argmin (evaluation) never picks a non-candidate."""
 
+    explore_fraction: float = field(
+        default=0.0, metadata=migrate(0.0, "selections were never overridden by exploration before the setting")
+    )
+    """Beyond the paper: while training, this share of the selections (drawn per robot and selection) ignores the
+    softmax and picks uniformly among the gaits the kinematic mask allows (every gait without it), so that each gait
+    keeps practising the commands it can produce and the tracking head keeps labelled windows of each. Measured
+    (docs/studies/skill_every_seed): with ``kinematic_feasible`` the head offers 1.0-1.2 candidates per selection, so
+    the gait that first tracks lateral commands best gets all of them and stays best (trotting on seeds 1 and 2,
+    walking on 3 and 4). Evaluation and export (argmin) never explore. 0 (default): the criterion's softmax alone."""
+
     label_source: LabelSource = field(
         default="policy",
         metadata=migrate("policy", "every robot's sampled actions, the only labels before the setting existed"),
@@ -360,6 +370,11 @@ class PredictorConfig(CheckedConfig):
             "kinematic_lateral_limit",
             "kinematic_yaw_limit",
             strict=False,
+        )
+        require(
+            0.0 <= self.explore_fraction < 1.0,
+            "PredictorConfig.explore_fraction",
+            f"must be in [0, 1), got {self.explore_fraction}",
         )
         require(
             0.0 <= self.holdout_fraction < 1.0,

@@ -422,6 +422,8 @@ class PredictiveGaitSelector(FixedGaitSelector):
         gaits that cannot move the trunk sideways."""
         if cfg.kinematic_mask and bool(self.stepless.all()):
             raise ValueError("the kinematic criterion needs a gait with swing in gait.library")
+        self.explored = torch.zeros(2, device=dev)
+        """Selections replaced by exploration (``explore_fraction``) and selections made since the last log."""
         self.candidates = torch.zeros(2, device=dev)
         """Candidate gaits offered and selections made since the last log (a tensor: no host sync per step)."""
         self.labeler = WindowLabeler(n, obs_dim, self.horizon, dev, command_cut=cfg.label_command_cut)
@@ -527,11 +529,25 @@ class PredictiveGaitSelector(FixedGaitSelector):
                     candidates = hard
             probs = gait_probabilities(power, tau, candidates)
             choice = torch.multinomial(probs, 1, generator=self.gen).flatten()
+            if self.training and cfg.explore_fraction > 0.0:
+                choice = self.explore(choice, hard)
             self.requested[ids] = choice.to(self.requested.dtype)
             self.in_gait[ids] = 0
             self.due[ids] = False
         if self.training:
             self.labeler.start(obs, active, self.requested.long(), self.label_robots, commands)
+
+    def explore(self, choice: torch.Tensor, allowed: torch.Tensor | None) -> torch.Tensor:
+        """``choice`` (B,) with each entry replaced, with probability ``explore_fraction``, by a gait drawn uniformly
+        among ``allowed`` (B, G) (every gait if None); counts the replaced selections for the log."""
+        b = len(choice)
+        if allowed is None:
+            allowed = torch.ones(b, self.num_gaits, dtype=torch.bool, device=choice.device)
+        explore = torch.rand(b, generator=self.gen, device=choice.device) < self.cfg.explore_fraction
+        uniform = torch.multinomial(allowed.float(), 1, generator=self.gen).flatten()
+        self.explored[0] += explore.sum()
+        self.explored[1] += b
+        return torch.where(explore, uniform, choice)
 
     def predict(self, obs: torch.Tensor) -> torch.Tensor:
         """Predicted mean p_cost of each gait over the horizon (N, G) [W]."""
@@ -673,6 +689,10 @@ class PredictiveGaitSelector(FixedGaitSelector):
         if selections > 0:
             out["Gait/candidates_per_selection"] = offered / selections
         self.candidates.zero_()
+        explored, made = self.explored.tolist()
+        if self.cfg.explore_fraction > 0.0 and made > 0:
+            out["Gait/explored_share"] = explored / made
+        self.explored.zero_()
         out["Predictor/windows"] = float(self.windows)
         out["Predictor/windows_dropped"] = float(self.labeler.dropped)
         return out
