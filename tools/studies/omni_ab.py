@@ -3,13 +3,16 @@
 Usage::
 
     python tools/studies/omni_ab.py RUN_DIR [RUN_DIR ...] [--eval-json NAME] [--lateral-json NAME] [--json PATH]
+                                    [--plot PNG --labels a;b;...]
 
 Per run: the levers that differ from the defaults (from its ``config.json``), samples and wall minutes until the
 20-iteration mean of each training error first stays below 0.2 / 0.15 / 0.1 (``tools/time_to_skill.py``'s rule),
 the last 50 iterations' mean errors, power and per-group policy std, and, where the run folder holds them, the MSE
 per axis of ``train/evaluate.py --json RUN_DIR/<eval-json>`` and the pure-lateral probe of ``--protocol lateral
 --json RUN_DIR/<lateral-json>``. Training errors are under each run's own command sampler: compare them only
-between runs with the same sampler; the evaluation holds the paper's commands for every run.
+between runs with the same sampler; the evaluation holds the paper's commands for every run. ``--plot`` draws the
+20-iteration mean of each training error against samples, one line per run (runs with the same label share a colour,
+seeds a line style), with the thresholds.
 """
 
 from __future__ import annotations
@@ -33,6 +36,8 @@ LEVER_FIELDS = {
     "only_positive": ("env", "reward", "only_positive"),
     "lateral_gain": ("env", "gait", "lateral_gain"),
     "epochs": ("train", "num_learning_epochs"),
+    "mini_batches": ("train", "num_mini_batches"),
+    "explore": ("env", "predictor", "explore_fraction"),
 }
 
 
@@ -138,6 +143,52 @@ def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50, upto:
     return out
 
 
+def plot_curves(runs: list[str], labels: list[str], out: str, upto: int | None = None) -> None:
+    """Training errors (20-iteration means) of each run against samples, one panel per axis (module docstring)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from wqwarp.rl.progress import read_metrics
+    from wqwarp.utils.io import atomic_path
+
+    arms = list(dict.fromkeys(labels))
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.6), sharex=True)
+    seen: dict[str, int] = {}
+    for run, label in zip(runs, labels, strict=True):
+        with open(os.path.join(run, "config.json"), encoding="utf-8") as f:
+            cfg = json.load(f)
+        per_it = (
+            int(cfg["env"]["sim"]["num_envs"]) * int(cfg.get("world_size", 1)) * int(cfg["train"]["num_steps_per_env"])
+        )
+        rows = read_metrics(run)[:upto]
+        k = seen[label] = seen.get(label, -1) + 1
+        for ax, axis in zip(axes, ("vx", "vy", "wz"), strict=True):
+            vals = [float(r.get(f"Metrics/{axis}_error") or 0.0) for r in rows]
+            mean = [sum(vals[max(0, i - 19) : i + 1]) / len(vals[max(0, i - 19) : i + 1]) for i in range(len(vals))]
+            x = [(i + 1) * per_it / 1e6 for i in range(len(mean))]
+            ax.plot(
+                x,
+                mean,
+                color=f"C{arms.index(label)}",
+                ls=("-", "--", ":", "-.")[k % 4],
+                lw=1.0,
+                label=f"{label} ({os.path.basename(run.rstrip('/'))})",
+            )
+    for ax, axis in zip(axes, ("v_x [m/s]", "v_y [m/s]", "w [rad/s]"), strict=True):
+        for th in THRESHOLDS:
+            ax.axhline(th, color="0.7", lw=0.6)
+        ax.set_xlabel("samples [M]")
+        ax.set_title(f"training |error| of {axis}, 20-it mean")
+        ax.set_ylim(0, 1.0 if axis.startswith("w") else 0.5)
+    axes[0].legend(fontsize=6)
+    fig.tight_layout()
+    with atomic_path(out) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+
+
 def archive(run: str, dest: str, every: int = 10) -> None:
     """The committed record of a run: its configuration, its evaluation results (``eval*.json``, ``lateral*.json``,
     ``energymap*.json``) and every ``every``-th row of ``metrics.jsonl`` (and the last), gzipped
@@ -169,6 +220,13 @@ def main(argv=None) -> int:
         "--upto", type=int, default=None, help="use the first UPTO iterations of each run (equal samples; default all)"
     )
     ap.add_argument("--json", default=None, help="also write the table to this JSON file")
+    ap.add_argument("--plot", default=None, help="also draw the training errors against samples into this PNG")
+    ap.add_argument(
+        "--labels",
+        default=None,
+        help="semicolon-separated arm label per run for --plot (runs with one label share a colour; default: "
+        "the run folder names)",
+    )
     ap.add_argument(
         "--archive",
         default=None,
@@ -182,6 +240,11 @@ def main(argv=None) -> int:
         results = [summarise(r, args.eval_json, args.lateral_json, upto=args.upto) for r in args.runs]
     except (OSError, ValueError, KeyError) as e:
         raise UsageError(str(e)) from None
+    if args.plot:
+        labels = args.labels.split(";") if args.labels else [os.path.basename(r.rstrip("/")) for r in args.runs]
+        if len(labels) != len(args.runs):
+            raise UsageError(f"--labels names {len(labels)} arms for {len(args.runs)} runs")
+        plot_curves(args.runs, labels, args.plot, args.upto)
     if args.archive:
         for run in args.runs:
             archive(run, os.path.join(args.archive, os.path.basename(run.rstrip("/"))))
