@@ -255,6 +255,24 @@ def _report_status(label: str, ok: bool, log: str, t0: float, code: object = 1) 
     return ok
 
 
+def recipe_differences(cfg: dict, task: str) -> list[str]:
+    """``"<lever path> <value> (the task's <value>)"`` for each lever of ``task``'s recipe that a training's
+    ``config.json`` holds another value of (a field it predates counts as the value its migration declares)."""
+    from wqwarp.rl.config import EnvConfig, TrainConfig, from_dict
+    from wqwarp.rl.tasks import RECIPE_LEVERS, get_path
+
+    roots = {"env": from_dict(EnvConfig, cfg.get("env") or {}, migrated=[])}
+    roots["train"] = from_dict(TrainConfig, cfg.get("train") or {}, migrated=[])
+    env, train = TASKS[task].make()
+    want = {"env": env, "train": train}
+    out = []
+    for lever in RECIPE_LEVERS:
+        have, ref = get_path(roots, lever.path), get_path(want, lever.path)
+        if have != ref:
+            out.append(f"{lever.path} {have} (the task's {ref})")
+    return out
+
+
 IMPORTED = "imported.json"
 """Marker in a run folder whose training was done by an earlier reproduction and imported (``--import-from``)."""
 
@@ -276,6 +294,12 @@ def import_mismatch(src: str, stem: str, budget: Budget) -> str | None:
     task = stem.rsplit("_s", 1)[0]
     if (trained := config_task(cfg)) != task:
         return f"trained as {trained}, this reproduction's {task} is another recipe"
+    try:
+        earlier = recipe_differences(cfg, task) if task in TASKS else []
+    except ValueError as e:
+        return f"its training configuration does not read ({e})"
+    if earlier:
+        return f"trained under an earlier recipe of {task} ({'; '.join(earlier)})"
     evals = sorted(glob.glob(os.path.join(src, f"{stem}_*.json")))
     evals = [e for e in evals if not e.endswith(("_train_config.json", "_train_info.json"))]
     if not evals:
