@@ -2,8 +2,8 @@
 restructured (main at bc08f71): rollout rewards, observations and actions, and the networks after the update
 (actor, critic, estimator, power predictor). The paper's cases are the ``-paper`` tasks; ``ours+omni`` is the former
 default main job (``ours`` with the ``omni`` levers, written out below), recorded when it became the default;
-``ours+select`` is the former ``--profile select`` recorded at 0788a8c, which the ``ours`` task without its later
-levers (issue 47's ``explore_fraction``, which draws from the selector's stream) must equal bit for bit.
+``ours+select`` is the former ``--profile select`` recorded at 0788a8c, which the ``ours`` task must equal bit for
+bit (a lever added to the task: compare the task less that lever, in the case's overrides).
 
 ``python tests/test_behaviour_reference.py --record`` rewrites ``tests/data/first_iteration.npz``; do that only for a
 change that is meant to change behaviour, and say so in the commit."""
@@ -31,7 +31,7 @@ CASES = (
     ("ours", "ours-paper", 5, {}),
     ("baseline", "baseline-paper", 7, {}),
     ("ours+omni", "ours-paper", 5, OMNI),
-    ("ours+select", "ours", 5, {"env.predictor.explore_fraction": 0.0}),
+    ("ours+select", "ours", 5, {}),
 )
 """(key prefix in the reference file, task, seed, overrides); the paper's cases keep the names recorded at bc08f71."""
 
@@ -73,7 +73,7 @@ def test_first_iteration_equals_the_recorded_one(head, task, seed, overrides):
     keys = sorted(k for k in ref.files if k.startswith(f"{head}/"))
     assert keys == sorted(now), "the recorded and current runs hold different tensors"
     for k in keys:
-        if head == "ours+select":  # recorded on this machine at 0788a8c: the ours task (less later levers) equals it
+        if head == "ours+select":  # recorded on this machine at 0788a8c: the ours task equals it bit for bit
             np.testing.assert_array_equal(now[k], ref[k], err_msg=k)
         else:  # float32 sums may round differently once a computation moves between torch and Warp
             np.testing.assert_allclose(now[k], ref[k], rtol=1e-4, atol=1e-5, err_msg=k)

@@ -125,10 +125,10 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     assert "trained as ours," in reproduce.import_mismatch(str(res), "ours-paper_s1", budget)
     (res / "ours-paper_s1_train_config.json").unlink()
     earlier = json.loads(json.dumps(cfg))
-    del earlier["env"]["predictor"]["explore_fraction"]  # a record from before the lever: an earlier recipe of ours
+    del earlier["env"]["predictor"]["label_command_cut"]  # a record from before the lever: an earlier recipe of ours
     (res / "ours_s1_train_config.json").write_text(json.dumps(earlier))
     why = reproduce.import_mismatch(str(res), "ours_s1", budget)
-    assert why == "trained under an earlier recipe of ours (env.predictor.explore_fraction 0.0 (the task's 0.25))"
+    assert why == "trained under an earlier recipe of ours (env.predictor.label_command_cut False (the task's True))"
     (res / "ours_s1_train_config.json").write_text(json.dumps(cfg))
     longer = dataclasses.replace(budget, iterations=5)
     assert "final is 4" in reproduce.import_mismatch(str(res), "ours_s1", longer)

@@ -310,9 +310,11 @@ class PredictorConfig(CheckedConfig):
     keeps practising the commands it can produce and the tracking head keeps labelled windows of each. Measured
     (docs/studies/skill_every_seed): with ``kinematic_feasible`` the head offers 1.0-1.2 candidates per selection, so
     the gait that first tracks lateral commands best gets all of them and stays best (trotting on seeds 1 and 2,
-    walking on 3 and 4); at 0.25 (the predictive ``<method>`` tasks) both of those seeds track v_y below MSE 0.05 at
-    7.38 M samples (0.042 / 0.050 against 0.065 / 0.090, docs/studies/skill_levers). Evaluation and export (argmin)
-    never explore. 0 (default, the paper's): the criterion's softmax alone."""
+    walking on 3 and 4); at 0.25 both of those seeds track v_y below MSE 0.05 at 7.38 M samples (0.042 / 0.050
+    against 0.065 / 0.090), but so did another perturbation of those runs (two PPO epochs: 0.034 / 0.068), and fresh
+    seeds 5 / 6 with it miss the bound (0.067 / 0.091; docs/studies/skill_levers): not in any task until an A/B on
+    unselected seeds shows it. Evaluation and export (argmin) never explore. 0 (default, the paper's): the
+    criterion's softmax alone."""
 
     label_source: LabelSource = field(
         default="policy",

@@ -112,19 +112,10 @@ RECIPE_LEVERS: tuple[Lever, ...] = (
         "tracker in 49 / 46 of 50 energy-map cells (uncut 40 / 21); standing and v_x driven 96-99 %",
         "feasible_selection",
     ),
-    Lever(
-        "env.predictor.explore_fraction",
-        0.25,
-        _predictive,
-        "a quarter of the training selections uniform among the kinematic candidates: v_y MSE at 7.38 M 0.042 / "
-        "0.050 against 0.065 / 0.090 (seeds 3, 4; the others' gait locked into walking lateral commands)",
-        "skill_levers",
-    ),
 )
 """The settings beyond the paper of every ``<method>`` task, in the order they were adopted (the levers of the
 former ``--profile select``: issue 21's omnidirectional levers, issue 22's P-only wheels and feasibility-aware
-selection; then issue 47's exploration among the stepping gaits). The cpu reproduction of docs/RESULTS.md ran under
-all but the last (``explore_fraction`` 0: its records are an earlier recipe of each task)."""
+selection). The cpu reproduction of docs/RESULTS.md ran under exactly these."""
 
 BUDGET: dict[str, object] = {"env.sim.num_envs": 128, "train.max_iterations": 4883}
 """The training budget of every task: 128 robots x 24 steps x 4883 iterations = 15.0 M samples, where the
