@@ -125,15 +125,7 @@ POWER_OUTPUTS = (
     "power_sq",
 )
 """Names of :func:`accumulate_power`'s outputs, in order; each is a (W,) float32 array."""
-REPORTED_POWER = (
-    "p_cost",
-    "p_cost_legs",
-    "p_cost_wheels",
-    "p_mech_legs",
-    "p_mech_wheels",
-    "p_joule_legs",
-    "p_joule_wheels",
-)
+REPORTED_POWER = ("p_cost", *(k for k in POWER_OUTPUTS if k.endswith(("_legs", "_wheels"))))
 """The outputs reported per training iteration (``Metrics/<name>``) and averaged by an evaluation task [W]: the
 paper's p_cost and each measure split into legs and wheels."""
 

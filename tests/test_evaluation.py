@@ -12,12 +12,13 @@ import numpy as np
 import pytest
 import torch
 
-from wqwarp.eval.metrics import POWER_KEYS, TaskMetrics
+from wqwarp.eval.metrics import TaskMetrics
+from wqwarp.kernels.power import REPORTED_POWER
 from wqwarp.rl.presets import make_preset
 
 
 def _power(**watts) -> dict:
-    out = {k: torch.zeros(2) for k in POWER_KEYS}
+    out = {k: torch.zeros(2) for k in REPORTED_POWER}
     out.update({k: torch.tensor(v, dtype=torch.float32) for k, v in watts.items()})
     return out
 

@@ -49,6 +49,12 @@ def _get(cfg: dict, path: tuple[str, ...]):
     return cfg
 
 
+def samples_per_iteration(cfg: dict) -> int:
+    """Robot-steps per PPO iteration of a run's resolved ``config.json`` (any version): robots x ranks x steps."""
+    robots = int(cfg["env"]["sim"]["num_envs"]) * int(cfg.get("world_size", 1))
+    return robots * int(cfg["train"]["num_steps_per_env"])
+
+
 def evaluation_curve(run: str, per_it: int) -> list[dict]:
     """MSE per task, upright share and power of every ``eval_<iterations>it.json`` in the run folder, by samples."""
     import re
@@ -82,8 +88,7 @@ def summarise(run: str, eval_json: str, lateral_json: str, tail: int = 50, upto:
     rows = read_metrics(run)[:upto]
     if not rows:
         raise ValueError(f"{run}: no metrics.jsonl rows")
-    robots = int(cfg["env"]["sim"]["num_envs"]) * int(cfg.get("world_size", 1))  # the resolved config (any version)
-    per_it = robots * int(cfg["train"]["num_steps_per_env"])
+    per_it = samples_per_iteration(cfg)
     out = {
         "run": run,
         "preset": cfg.get("task") or cfg["args"].get("preset"),
@@ -159,9 +164,7 @@ def plot_curves(runs: list[str], labels: list[str], out: str, upto: int | None =
     for run, label in zip(runs, labels, strict=True):
         with open(os.path.join(run, "config.json"), encoding="utf-8") as f:
             cfg = json.load(f)
-        per_it = (
-            int(cfg["env"]["sim"]["num_envs"]) * int(cfg.get("world_size", 1)) * int(cfg["train"]["num_steps_per_env"])
-        )
+        per_it = samples_per_iteration(cfg)
         rows = read_metrics(run)[:upto]
         k = seen[label] = seen.get(label, -1) + 1
         for ax, axis in zip(axes, ("vx", "vy", "wz"), strict=True):

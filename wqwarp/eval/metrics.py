@@ -29,8 +29,6 @@ w each in [-1, 1])."""
 
 MIN_COT_SPEED = 0.1
 """Mean planar speed [m/s] below which no cost of transport is reported."""
-POWER_KEYS = REPORTED_POWER
-"""Per-robot power outputs of the simulator (``env.tv``) that a task averages [W]."""
 
 
 @dataclass
@@ -104,17 +102,17 @@ class TaskMetrics:
         self.sq_axes = torch.zeros(n, 3, device=dev)
         self.abs_err = torch.zeros(n, device=dev)
         self.speed = torch.zeros(n, device=dev)
-        self.power = {k: torch.zeros(n, device=dev) for k in POWER_KEYS}
+        self.power = {k: torch.zeros(n, device=dev) for k in REPORTED_POWER}
         self.steps = 0
 
     def add(self, velocity: torch.Tensor, power: dict) -> None:
         """``velocity`` (N, 3): measured (v_x, v_y, w_z) in the base frame; ``power``: (N,) tensors of
-        :data:`POWER_KEYS` [W]."""
+        :data:`REPORTED_POWER` [W]."""
         err = velocity - self.cmd
         self.sq_axes += err**2
         self.abs_err += err[:, self.axis].abs()
         self.speed += torch.linalg.vector_norm(velocity[:, :2], dim=1)
-        for k in POWER_KEYS:
+        for k in REPORTED_POWER:
             self.power[k] += power[k]
         self.steps += 1
 

@@ -46,7 +46,7 @@ from typing import TextIO
 
 from wqwarp.eval.report import config_task, read_json
 from wqwarp.eval.timeline import fig6_segments
-from wqwarp.rl.tasks import TASKS
+from wqwarp.rl.tasks import TASKS, recipe_differences
 from wqwarp.utils.io import open_text, repo_path, write_text_atomic
 
 
@@ -255,26 +255,17 @@ def _report_status(label: str, ok: bool, log: str, t0: float, code: object = 1) 
     return ok
 
 
-def recipe_differences(cfg: dict, task: str) -> list[str]:
-    """``"<lever path> <value> (the task's <value>)"`` for each lever of ``task``'s recipe that a training's
-    ``config.json`` holds another value of (a field it predates counts as the value its migration declares)."""
-    from wqwarp.rl.config import EnvConfig, TrainConfig, from_dict
-    from wqwarp.rl.tasks import RECIPE_LEVERS, get_path
-
-    roots = {"env": from_dict(EnvConfig, cfg.get("env") or {}, migrated=[])}
-    roots["train"] = from_dict(TrainConfig, cfg.get("train") or {}, migrated=[])
-    env, train = TASKS[task].make()
-    want = {"env": env, "train": train}
-    out = []
-    for lever in RECIPE_LEVERS:
-        have, ref = get_path(roots, lever.path), get_path(want, lever.path)
-        if have != ref:
-            out.append(f"{lever.path} {have} (the task's {ref})")
-    return out
-
-
 IMPORTED = "imported.json"
 """Marker in a run folder whose training was done by an earlier reproduction and imported (``--import-from``)."""
+
+
+def recorded_recipe_differences(cfg: dict, task: str) -> list[str]:
+    """:func:`wqwarp.rl.tasks.recipe_differences` of a training's ``config.json`` (a field it predates counts as the
+    value its migration declares); ValueError if it does not read."""
+    from wqwarp.rl.config import EnvConfig, TrainConfig, from_dict
+
+    env = from_dict(EnvConfig, cfg.get("env") or {}, migrated=[])
+    return recipe_differences(env, from_dict(TrainConfig, cfg.get("train") or {}, migrated=[]), task)
 
 
 def import_mismatch(src: str, stem: str, budget: Budget) -> str | None:
@@ -295,7 +286,7 @@ def import_mismatch(src: str, stem: str, budget: Budget) -> str | None:
     if (trained := config_task(cfg)) != task:
         return f"trained as {trained}, this reproduction's {task} is another recipe"
     try:
-        earlier = recipe_differences(cfg, task) if task in TASKS else []
+        earlier = recorded_recipe_differences(cfg, task) if task in TASKS else []
     except ValueError as e:
         return f"its training configuration does not read ({e})"
     if earlier:

@@ -191,6 +191,22 @@ def task_help() -> str:
     return "\n".join(f"  {t.name:<{width}}  {t.summary}" for t in TASKS.values())
 
 
+def recipe_differences(env: EnvConfig, train: TrainConfig | None, task: str) -> list[str]:
+    """``"<lever path> <value> (the task's <value>)"`` for each lever field of the recipes (every ``RECIPE_LEVERS``
+    path; the ``env.`` ones only without ``train``) where the configuration differs from ``task``'s."""
+    roots = {"env": env, "train": train if train is not None else TrainConfig()}
+    ref_env, ref_train = TASKS[task].make()
+    ref = {"env": ref_env, "train": ref_train}
+    out = []
+    for lever in RECIPE_LEVERS:
+        if train is None and not lever.path.startswith("env."):
+            continue
+        have, want = get_path(roots, lever.path), get_path(ref, lever.path)
+        if have != want:
+            out.append(f"{lever.path} {have} (the task's {want})")
+    return out
+
+
 def infer_task(env: EnvConfig, train: TrainConfig | None = None) -> str | None:
     """The task whose recipe a configuration was built from (its method and every lever field equal to the task's),
     ignoring the budget and any other field; None if none fits (a configuration made by hand)."""
@@ -199,11 +215,7 @@ def infer_task(env: EnvConfig, train: TrainConfig | None = None) -> str | None:
     method = infer_preset(env)
     if method is None:
         return None
-    roots = {"env": env, "train": train if train is not None else TrainConfig()}
-    paths = [lv.path for lv in RECIPE_LEVERS if train is not None or lv.path.startswith("env.")]
     for name in (method, f"{method}-paper"):
-        ref_env, ref_train = TASKS[name].make()
-        ref = {"env": ref_env, "train": ref_train}
-        if all(get_path(roots, p) == get_path(ref, p) for p in paths):
+        if not recipe_differences(env, train, name):
             return name
     return None
