@@ -84,6 +84,7 @@ OLD_MIGRATIONS = (
     ("predictor.label_fraction", 0.125, "its default (unused with policy labels)"),
     ("predictor.label_command_cut", False, "windows were cut only by resets and gait switches before the setting"),
     ("predictor.kinematic_yaw_limit", 10.0, "driving a candidate for every yaw command before the setting existed"),
+    ("predictor.kinematic_reach", False, "no gait was kept off commands beyond its reach before the setting"),
     ("predictor.explore_fraction", 0.0, "selections were never overridden by exploration before the setting"),
     ("reward.p_cost", 0.0, "no power-cost term before the setting existed"),
     ("reward.joint_limits", 0.0, "no joint-limit term before the setting existed"),

@@ -260,6 +260,32 @@ def test_the_kinematic_criterion_keeps_lateral_commands_off_the_gait_without_swi
     assert sel.kinematic_candidates(turns)[:, 1:].all()
 
 
+def test_the_reach_mask_keeps_lateral_commands_beyond_a_gaits_stroke_off_it():
+    # Table I at lateral_limit 0.12 m: trotting sweeps 0.24 m in (1 - 0.4) / 1.2 = 0.5 s of stance (0.48 m/s),
+    # walking in (1 - 0.225) / 0.8 = 0.96875 s (0.2477 m/s); driving has no stroke (its own limit, 0.1 m/s).
+    from wqwarp.control.gaits import TABLE_I
+    from wqwarp.rl.config import EnvConfig
+    from wqwarp.rl.gait_selection import lateral_reach, make_gait_selector
+
+    assert [lateral_reach(g, 0.12) for g in TABLE_I] == pytest.approx([0.0, 0.48, 0.24 / 0.96875])
+    cfg = EnvConfig()
+    cfg.gait.selection, cfg.predictor.criterion = "predictive", "kinematic"
+    cfg.predictor.kinematic_reach = True
+    with pytest.raises(ValueError, match="lateral_gain"):
+        make_gait_selector(cfg, torch.zeros(4, dtype=torch.int32), GAITS, 1, 0.02, obs_dim=2)
+    cfg.gait.lateral_gain = 0.35
+    sel = make_gait_selector(cfg, torch.zeros(5, dtype=torch.int32), GAITS, 1, 0.02, obs_dim=2)
+    cmd = torch.tensor([[0.0, 0.05, 0.0], [0.0, -0.2, 0.0], [0.0, 0.3, 0.0], [0.0, -0.6, 0.0], [0.5, 0.0, 0.4]])
+    expect = [[True, True, True], [False, True, True], [False, True, False], [False, True, False], [True, True, True]]
+    assert sel.kinematic_candidates(cmd).tolist() == expect  # trotting, the widest reach, stays beyond 0.48
+    _constant_power(sel, [1.0, 9.0, 5.0])
+    sel.select(torch.zeros(5, 2), torch.ones(5, dtype=torch.long), cmd)  # the argmin: cheapest candidate
+    assert sel.requested.tolist() == [0, 2, 1, 1, 0]
+    cfg.predictor.criterion = "power"  # the mask belongs to the kinematic criteria
+    with pytest.raises(ValueError, match="kinematic criterion"):
+        make_gait_selector(cfg, torch.zeros(4, dtype=torch.int32), GAITS, 1, 0.02, obs_dim=2)
+
+
 def test_exploration_picks_uniformly_among_the_kinematic_candidates_in_training_only():
     # Power makes walking the certain choice (tau small); with explore_fraction 0.3 a lateral command goes to each
     # of the two stepping gaits with probability 0.15 by exploration (never to driving, which the kinematic mask

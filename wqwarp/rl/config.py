@@ -302,6 +302,16 @@ class PredictorConfig(CheckedConfig):
     made the selection an argmin of the predicted error (1.0-1.1 candidates per selection) and sent 90-100 % of the
     lateral commands to driving by iteration 600. The argmin (evaluation) never picks a non-candidate."""
 
+    kinematic_reach: bool = field(
+        default=False, metadata=migrate(False, "no gait was kept off commands beyond its reach before the setting")
+    )
+    """Beyond the paper, with the ``kinematic`` criteria: also keep a lateral command off each stepping gait whose
+    nominal pattern cannot reach it, |v_y^cmd| above r = 2 ``gait.lateral_limit`` f / (1 - DF_swing), the speed at
+    which the stance foot sweeps the lateral feed-forward's full stroke (+-lateral_limit) in one stance phase
+    (Table I at 0.12 m: trotting 0.48, walking 0.25 m/s). The stepping gait of the widest reach always stays a
+    candidate. Measured open loop (docs/studies/skill_levers, every action 0): trotting reaches 0.38 m/s, walking
+    0.22 m/s, at the 0.12 m stroke. A property of the gait, not a learned estimate; it needs ``gait.lateral_gain``
+    > 0 (without the feed-forward the nominal gaits have no lateral stroke)."""
     explore_fraction: float = field(
         default=0.0, metadata=migrate(0.0, "selections were never overridden by exploration before the setting")
     )

@@ -394,6 +394,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
         cfg,
         seed: int = 0,
         stepless: tuple[bool, ...] | None = None,
+        lateral_reach: tuple[float, ...] | None = None,
     ):
         super().__init__(requested, gait_names, start_gait, policy_dt)
         self.cfg = cfg
@@ -422,6 +423,13 @@ class PredictiveGaitSelector(FixedGaitSelector):
         gaits that cannot move the trunk sideways."""
         if cfg.kinematic_mask and bool(self.stepless.all()):
             raise ValueError("the kinematic criterion needs a gait with swing in gait.library")
+        self.lateral_reach = (
+            torch.tensor(lateral_reach, dtype=torch.float32, device=dev) if lateral_reach is not None else None
+        )
+        """Each gait's nominal lateral reach [m/s] (:func:`lateral_reach`; 0 for gaits without swing), read by the
+        ``kinematic_reach`` mask; None without it."""
+        if cfg.kinematic_reach and (not cfg.kinematic_mask or self.lateral_reach is None):
+            raise ValueError("predictor.kinematic_reach needs a kinematic criterion and the gaits' lateral reach")
         self.explored = torch.zeros(2, device=dev)
         """Selections replaced by exploration (``explore_fraction``) and selections made since the last log."""
         self.candidates = torch.zeros(2, device=dev)
@@ -567,7 +575,13 @@ class PredictiveGaitSelector(FixedGaitSelector):
         stepping gait, checked at build)."""
         cfg = self.cfg
         legged = (commands[:, 1].abs() > cfg.kinematic_lateral_limit) | (commands[:, 2].abs() > cfg.kinematic_yaw_limit)
-        return ~(legged[:, None] & self.stepless[None, :])
+        allowed = ~(legged[:, None] & self.stepless[None, :])
+        if cfg.kinematic_reach:  # stepping gaits: |v_y| within the reach, the widest-reaching one always kept
+            reach = self.lateral_reach
+            beyond = (commands[:, 1:2].abs() > reach[None, :]) & ~self.stepless[None, :]
+            beyond[:, int(torch.argmax(torch.where(self.stepless, -1.0, reach)))] = False
+            allowed &= ~beyond
+        return allowed
 
     def candidate_gaits(self, obs: torch.Tensor, allowed: torch.Tensor | None = None) -> torch.Tensor | None:
         """(N, G) bool: the gaits the ``feasible`` margin offers for o_t among ``allowed`` (every gait if None);
@@ -728,6 +742,15 @@ class PredictiveGaitSelector(FixedGaitSelector):
             self.tracker_fitted = bool(state.get("tracker_fitted", True))
 
 
+def lateral_reach(gait, lateral_limit: float) -> float:
+    """The nominal lateral reach of ``gait`` [m/s]: the trunk speed at which the stance feet sweep the lateral
+    feed-forward's full stroke 2 ``lateral_limit`` [m] in one stance phase of (1 - DF_swing) / f [s]; 0 for a gait
+    without swing (``wqwarp.kernels.gait.lateral_stroke``)."""
+    if gait.df_swing == 0.0 or gait.frequency == 0.0:
+        return 0.0
+    return 2.0 * lateral_limit * gait.frequency / (1.0 - gait.df_swing)
+
+
 def make_gait_selector(
     cfg, requested: torch.Tensor | None, gait_names: tuple[str, ...], start_gait: int, policy_dt: float, obs_dim: int
 ) -> GaitSelector:
@@ -739,7 +762,12 @@ def make_gait_selector(
         return FixedGaitSelector(requested, gait_names, start_gait, policy_dt)
     if sel == "predictive":
         stepless = tuple(g.df_swing == 0.0 for g in cfg.gait.library)
+        reach = None
+        if cfg.predictor.kinematic_reach:
+            if cfg.gait.lateral_gain <= 0.0:
+                raise ValueError("predictor.kinematic_reach needs gait.lateral_gain > 0 (the lateral feed-forward)")
+            reach = tuple(lateral_reach(g, cfg.gait.lateral_limit) for g in cfg.gait.library)
         return PredictiveGaitSelector(
-            requested, gait_names, start_gait, policy_dt, obs_dim, cfg.predictor, cfg.seed, stepless
+            requested, gait_names, start_gait, policy_dt, obs_dim, cfg.predictor, cfg.seed, stepless, reach
         )
     raise ValueError(f"unknown gait.selection {sel!r}; choose none, fixed or predictive")
