@@ -10,6 +10,12 @@ Usage::
 the policy (with the increment reading, -f dt / phase_scale = -0.12 stops the trotting clock) and the standard
 deviation of the foot-y actions.
 
+``--reach --checkpoint CKPT``: the nominal gaits alone (every action 0) with the checkpoint's lateral
+feed-forward, each stepping gait forced, ``--robots`` robots per held v_y command from 0.1 to 0.7 m/s, for each stroke
+bound in ``--limits`` [m] (``gait.lateral_limit``): the achieved v_y, the yaw rate and the upright share beside the
+nominal reach 2 limit f / (1 - DF_swing) that ``predictor.kinematic_reach`` masks by
+(``wqwarp.rl.gait_selection.lateral_reach``). The policy's weights are not used, only its environment.
+
 ``--open-loop``: one robot on the nominal trot (no policy) with a foot-y sawtooth added to every leg: in swing
 the foot moves from -A to +A, in stance back from +A to -A (the stance legs push the body to +y); prints the
 achieved mean v_y (base frame, after 1 s) per amplitude A [m]. Shows whether the action space (foot residuals,
@@ -61,6 +67,49 @@ def probe_policy(checkpoint: str, seconds: float) -> dict:
     }
 
 
+REACH_COMMANDS = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
+
+
+def probe_reach(checkpoint: str, limits: list[float], robots: int, seconds: float) -> dict:
+    from wqwarp.eval.lateral import probe
+    from wqwarp.eval.loading import make_policy_runner
+    from wqwarp.eval.tracking import zero_policy
+    from wqwarp.rl.gait_selection import lateral_reach
+
+    runner = make_policy_runner(checkpoint, None, num_envs=len(REACH_COMMANDS) * robots)
+    env = runner.env
+    if env.nominal is None or env.gait_selector.name != "predictive":
+        raise ValueError(f"--reach needs a checkpoint of a predictive preset with a nominal gait: {checkpoint}")
+    runner.policy = zero_policy(env)
+    ng, library = env.nominal, env.cfg.gait.library
+    rows = []
+    for gid, gait in enumerate(library):
+        if gait.df_swing == 0.0:
+            continue
+        for limit in limits:
+            ng.lateral_limit = limit
+            res = probe(runner, list(REACH_COMMANDS), robots, seconds, forced_gait=gid)
+            keep = ("command_vy", "vy", "wz", "upright", "foot_y_stroke_m")
+            rows.append(
+                {
+                    "gait": gait.name,
+                    "lateral_limit_m": limit,
+                    "nominal_reach_mps": lateral_reach(gait, limit),
+                    "commands": [{k: r[k] for k in keep} for r in res],
+                    "max_upright_vy": max((r["vy"] for r in res if r["upright"] == 1.0), default=None),
+                }
+            )
+            print(
+                f"{gait.name:10s} limit {limit:.2f} m  reach {lateral_reach(gait, limit):.2f} m/s  "
+                + "  ".join(
+                    f"{r['command_vy']:.1f}->{r['vy']:+.2f} (w {r['wz']:+.2f}, {r['upright']:.0%})" for r in res
+                ),
+                file=sys.stderr,
+                flush=True,
+            )
+    return {"checkpoint": checkpoint, "lateral_gain_s": ng.lateral_gain, "robots_per_command": robots, "reach": rows}
+
+
 def probe_open_loop(amplitudes: list[float], seconds: float) -> dict:
     import warp as wp
 
@@ -107,6 +156,9 @@ def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("--checkpoint", default=None, help="probe this policy (model_<it>.pt)")
     ap.add_argument("--open-loop", action="store_true", help="probe the nominal trot plus a foot-y sawtooth")
+    ap.add_argument("--reach", action="store_true", help="with --checkpoint: each stepping gait's lateral reach")
+    ap.add_argument("--limits", default="0.12,0.2", help="--reach: stroke bounds [m] (default 0.12,0.2)")
+    ap.add_argument("--robots", type=int, default=4, help="--reach: robots per command (default 4)")
     ap.add_argument(
         "--amplitudes", default="0,0.03,0.06", help="open loop: sawtooth amplitudes [m] (default 0,0.03,0.06)"
     )
@@ -119,15 +171,27 @@ def main(argv=None) -> int:
         raise UsageError(f"no such checkpoint: {args.checkpoint}")
     if args.json and (problem := output_problem(args.json)):
         raise UsageError(f"--json {args.json!r}: {problem}")
+    if args.reach and (args.checkpoint is None or args.robots < 1):
+        raise UsageError("--reach needs --checkpoint (the environment's configuration) and --robots >= 1")
     try:
         amps = [float(x) for x in args.amplitudes.split(",")]
+        limits = [float(x) for x in args.limits.split(",")]
     except ValueError:
-        raise UsageError(f"--amplitudes must be comma-separated numbers, got {args.amplitudes!r}") from None
+        raise UsageError(
+            f"--amplitudes / --limits must be comma-separated numbers: {args.amplitudes!r}, {args.limits!r}"
+        ) from None
+    if any(x <= 0 for x in limits):
+        raise UsageError(f"--limits must be positive strokes [m], got {args.limits!r}")
 
     from wqwarp import quiet_warp
 
     quiet_warp()
-    res = probe_policy(args.checkpoint, args.seconds) if args.checkpoint else probe_open_loop(amps, args.seconds)
+    if args.reach:
+        res = probe_reach(args.checkpoint, limits, args.robots, args.seconds)
+    elif args.checkpoint:
+        res = probe_policy(args.checkpoint, args.seconds)
+    else:
+        res = probe_open_loop(amps, args.seconds)
     from wqwarp.utils.provenance import git_state, write_result_json
 
     res = {"command": " ".join(sys.argv), "git": git_state(), **res}
