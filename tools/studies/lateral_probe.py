@@ -70,7 +70,12 @@ def probe_policy(checkpoint: str, seconds: float) -> dict:
 REACH_COMMANDS = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
 
 
-def probe_reach(checkpoint: str, limits: list[float], robots: int, seconds: float) -> dict:
+def probe_reach(
+    checkpoint: str, limits: list[float], robots: int, seconds: float, frequency_scales: list[float] = (1.0,)
+) -> dict:
+    from dataclasses import replace
+
+    from wqwarp.control.gaits import gait_library_arrays
     from wqwarp.eval.lateral import probe
     from wqwarp.eval.loading import make_policy_runner
     from wqwarp.eval.tracking import zero_policy
@@ -81,32 +86,34 @@ def probe_reach(checkpoint: str, limits: list[float], robots: int, seconds: floa
     if env.nominal is None or env.gait_selector.name != "predictive":
         raise ValueError(f"--reach needs a checkpoint of a predictive preset with a nominal gait: {checkpoint}")
     runner.policy = zero_policy(env)
-    ng, library = env.nominal, env.cfg.gait.library
+    ng, table = env.nominal, env.cfg.gait.library
     rows = []
-    for gid, gait in enumerate(library):
-        if gait.df_swing == 0.0:
+    for gid, scale, limit in ((g, k, x) for g in range(len(table)) for k in frequency_scales for x in limits):
+        if table[gid].df_swing == 0.0:
             continue
-        for limit in limits:
-            ng.lateral_limit = limit
-            res = probe(runner, list(REACH_COMMANDS), robots, seconds, forced_gait=gid)
-            keep = ("command_vy", "vy", "wz", "upright", "foot_y_stroke_m")
-            rows.append(
-                {
-                    "gait": gait.name,
-                    "lateral_limit_m": limit,
-                    "nominal_reach_mps": lateral_reach(gait, limit),
-                    "commands": [{k: r[k] for k in keep} for r in res],
-                    "max_upright_vy": max((r["vy"] for r in res if r["upright"] == 1.0), default=None),
-                }
-            )
-            print(
-                f"{gait.name:10s} limit {limit:.2f} m  reach {lateral_reach(gait, limit):.2f} m/s  "
-                + "  ".join(
-                    f"{r['command_vy']:.1f}->{r['vy']:+.2f} (w {r['wz']:+.2f}, {r['upright']:.0%})" for r in res
-                ),
-                file=sys.stderr,
-                flush=True,
-            )
+        # a study of the nominal pattern only: the library's gait at scale x its frequency (same size, same ids)
+        library = tuple(replace(g, frequency=g.frequency * scale) if i == gid else g for i, g in enumerate(table))
+        ng.library, ng.arrays, gait = library, gait_library_arrays(ng.device, library), library[gid]
+        ng.lateral_limit = limit
+        res = probe(runner, list(REACH_COMMANDS), robots, seconds, forced_gait=gid)
+        keep = ("command_vy", "vy", "wz", "upright", "foot_y_stroke_m")
+        rows.append(
+            {
+                "gait": gait.name,
+                "frequency_hz": gait.frequency,
+                "lateral_limit_m": limit,
+                "nominal_reach_mps": lateral_reach(gait, limit),
+                "commands": [{k: r[k] for k in keep} for r in res],
+                "max_upright_vy": max((r["vy"] for r in res if r["upright"] == 1.0), default=None),
+            }
+        )
+        print(
+            f"{gait.name:10s} {gait.frequency:.2f} Hz limit {limit:.2f} m  reach {lateral_reach(gait, limit):.2f} m/s  "
+            + "  ".join(f"{r['command_vy']:.1f}->{r['vy']:+.2f} (w {r['wz']:+.2f}, {r['upright']:.0%})" for r in res),
+            file=sys.stderr,
+            flush=True,
+        )
+    ng.library, ng.arrays = table, gait_library_arrays(ng.device, table)
     return {"checkpoint": checkpoint, "lateral_gain_s": ng.lateral_gain, "robots_per_command": robots, "reach": rows}
 
 
@@ -158,6 +165,9 @@ def main(argv=None) -> int:
     ap.add_argument("--open-loop", action="store_true", help="probe the nominal trot plus a foot-y sawtooth")
     ap.add_argument("--reach", action="store_true", help="with --checkpoint: each stepping gait's lateral reach")
     ap.add_argument("--limits", default="0.12,0.2", help="--reach: stroke bounds [m] (default 0.12,0.2)")
+    ap.add_argument(
+        "--frequency-scales", default="1", help="--reach: each stepping gait also at these multiples of its frequency"
+    )
     ap.add_argument("--robots", type=int, default=4, help="--reach: robots per command (default 4)")
     ap.add_argument(
         "--amplitudes", default="0,0.03,0.06", help="open loop: sawtooth amplitudes [m] (default 0,0.03,0.06)"
@@ -176,18 +186,21 @@ def main(argv=None) -> int:
     try:
         amps = [float(x) for x in args.amplitudes.split(",")]
         limits = [float(x) for x in args.limits.split(",")]
+        scales = [float(x) for x in args.frequency_scales.split(",")]
     except ValueError:
         raise UsageError(
             f"--amplitudes / --limits must be comma-separated numbers: {args.amplitudes!r}, {args.limits!r}"
         ) from None
-    if any(x <= 0 for x in limits):
-        raise UsageError(f"--limits must be positive strokes [m], got {args.limits!r}")
+    if any(x <= 0 for x in limits) or any(x <= 0 for x in scales):
+        raise UsageError(
+            f"--limits and --frequency-scales must be positive: {args.limits!r}, {args.frequency_scales!r}"
+        )
 
     from wqwarp import quiet_warp
 
     quiet_warp()
     if args.reach:
-        res = probe_reach(args.checkpoint, limits, args.robots, args.seconds)
+        res = probe_reach(args.checkpoint, limits, args.robots, args.seconds, scales)
     elif args.checkpoint:
         res = probe_policy(args.checkpoint, args.seconds)
     else:
