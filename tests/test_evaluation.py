@@ -453,6 +453,28 @@ def test_the_lateral_probe_reports_per_command_and_per_gait(tmp_path, save_check
     assert (tmp_path / "lat.json").is_file()
 
 
+def test_the_nominal_stepping_gaits_move_sideways_with_the_lateral_feed_forward(tmp_path, save_checkpoint):
+    """tools/studies/lateral_probe.py --reach: every action 0, each stepping gait forced; the feed-forward alone
+    moves the trunk toward a held lateral command (Table I's trot and walk, and each at 1.5x its frequency)."""
+    import importlib
+
+    from wqwarp.rl.tasks import TASKS
+
+    probe_reach = importlib.import_module("tools.studies.lateral_probe").probe_reach
+    cfg = TASKS["ours"].make()[0]  # the recipe: lateral feed-forward on
+    assert cfg.gait.lateral_gain > 0
+    cfg.sim.num_envs = 1
+    save_checkpoint(tmp_path / "model_0.pt", cfg)
+    out = probe_reach(str(tmp_path / "model_0.pt"), [0.12], robots=1, seconds=3.5, frequency_scales=[1.0, 1.5])
+    rows = {(r["gait"], round(r["frequency_hz"], 3)): r for r in out["reach"]}
+    assert set(rows) == {("trotting", 1.2), ("trotting", 1.8), ("walking", 0.8), ("walking", 1.2)}
+    assert rows["trotting", 1.2]["nominal_reach_mps"] == pytest.approx(0.48)
+    for gait in ("trotting", "walking"):
+        slow = rows[gait, 1.2 if gait == "trotting" else 0.8]["commands"]
+        assert slow[1]["command_vy"] == 0.2 and slow[1]["upright"] == 1.0
+        assert 0.05 < slow[1]["vy"] < 0.4  # toward the command, not past twice it
+
+
 def test_the_noise_escape_probe_finds_no_escape_in_an_untrained_policy(tmp_path, save_checkpoint):
     """tools/studies/noise_escape_probe.py: around a near-zero mean residual, the sampled noise reaches the leg
     targets as it would around the nominal foot (ratio ~1), and no foot sample sits at the clip."""
