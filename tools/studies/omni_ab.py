@@ -38,6 +38,7 @@ LEVER_FIELDS = {
     "epochs": ("train", "num_learning_epochs"),
     "mini_batches": ("train", "num_mini_batches"),
     "explore": ("env", "predictor", "explore_fraction"),
+    "reach": ("env", "predictor", "kinematic_reach"),
 }
 
 
