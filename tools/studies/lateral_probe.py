@@ -87,6 +87,7 @@ def probe_reach(
         raise ValueError(f"--reach needs a checkpoint of a predictive preset with a nominal gait: {checkpoint}")
     runner.policy = zero_policy(env)
     ng, table = env.nominal, env.cfg.gait.library
+    keep = ("command_vy", "vy", "wz", "upright", "foot_y_stroke_m")
     rows = []
     for gid, scale, limit in ((g, k, x) for g in range(len(table)) for k in frequency_scales for x in limits):
         if table[gid].df_swing == 0.0:
@@ -96,7 +97,6 @@ def probe_reach(
         ng.library, ng.arrays, gait = library, gait_library_arrays(ng.device, library), library[gid]
         ng.lateral_limit = limit
         res = probe(runner, list(REACH_COMMANDS), robots, seconds, forced_gait=gid)
-        keep = ("command_vy", "vy", "wz", "upright", "foot_y_stroke_m")
         rows.append(
             {
                 "gait": gait.name,
@@ -189,7 +189,8 @@ def main(argv=None) -> int:
         scales = [float(x) for x in args.frequency_scales.split(",")]
     except ValueError:
         raise UsageError(
-            f"--amplitudes / --limits must be comma-separated numbers: {args.amplitudes!r}, {args.limits!r}"
+            "--amplitudes, --limits and --frequency-scales must be comma-separated numbers: "
+            f"{args.amplitudes!r}, {args.limits!r}, {args.frequency_scales!r}"
         ) from None
     if any(x <= 0 for x in limits) or any(x <= 0 for x in scales):
         raise UsageError(

@@ -188,13 +188,10 @@ def policy_metadata(env: WheeledGo1Env, outputs: list[str]) -> dict:
                 f"{p.kinematic_lateral_limit} m/s or |w^cmd| > {p.kinematic_yaw_limit} rad/s, else every "
                 "gait"
             )
-            if p.kinematic_reach:
-                reach = dict(zip(selector.gait_names, selector.lateral_reach.tolist(), strict=True))
-                widest = max((r, g) for g, r in reach.items())[1]
-                limits = ", ".join(f"{g} {r:.3f}" for g, r in reach.items() if r > 0 and g != widest)
-                candidates.append(
-                    f"of those, no gait whose lateral reach [m/s] is below |v_y^cmd| ({limits}; {widest} always)"
-                )
+            if selector.reach_limit is not None:
+                bounds = zip(selector.gait_names, selector.reach_limit.tolist(), strict=True)
+                limits = ", ".join(f"{g} {r:.3f}" for g, r in bounds if r != float("inf"))
+                candidates.append(f"of those, no gait whose lateral reach [m/s] is below |v_y^cmd| ({limits})")
         if selector.tracker is not None:
             meta["gait_selection"]["predicted_tracking_error"] = (
                 "mean (v_x^cmd - v_x)^2 + (v_y^cmd - v_y)^2 + (w^cmd - w_z)^2 over the next horizon_s, per gait"

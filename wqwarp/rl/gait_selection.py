@@ -394,7 +394,7 @@ class PredictiveGaitSelector(FixedGaitSelector):
         cfg,
         seed: int = 0,
         stepless: tuple[bool, ...] | None = None,
-        lateral_reach: tuple[float, ...] | None = None,
+        reach_limit: tuple[float, ...] | None = None,
     ):
         super().__init__(requested, gait_names, start_gait, policy_dt)
         self.cfg = cfg
@@ -423,13 +423,11 @@ class PredictiveGaitSelector(FixedGaitSelector):
         gaits that cannot move the trunk sideways."""
         if cfg.kinematic_mask and bool(self.stepless.all()):
             raise ValueError("the kinematic criterion needs a gait with swing in gait.library")
-        self.lateral_reach = (
-            torch.tensor(lateral_reach, dtype=torch.float32, device=dev) if lateral_reach is not None else None
+        self.reach_limit = (
+            torch.tensor(reach_limit, dtype=torch.float32, device=dev) if reach_limit is not None else None
         )
-        """Each gait's nominal lateral reach [m/s] (:func:`lateral_reach`; 0 for gaits without swing), read by the
-        ``kinematic_reach`` mask; None without it."""
-        if cfg.kinematic_reach and (not cfg.kinematic_mask or self.lateral_reach is None):
-            raise ValueError("predictor.kinematic_reach needs a kinematic criterion and the gaits' lateral reach")
+        """The ``kinematic_reach`` mask's |v_y^cmd| bound per gait [m/s] (:func:`reach_limits`; inf where it keeps
+        none off); None without the mask."""
         self.explored = torch.zeros(2, device=dev)
         """Selections replaced by exploration (``explore_fraction``) and selections made since the last log."""
         self.candidates = torch.zeros(2, device=dev)
@@ -576,11 +574,8 @@ class PredictiveGaitSelector(FixedGaitSelector):
         cfg = self.cfg
         legged = (commands[:, 1].abs() > cfg.kinematic_lateral_limit) | (commands[:, 2].abs() > cfg.kinematic_yaw_limit)
         allowed = ~(legged[:, None] & self.stepless[None, :])
-        if cfg.kinematic_reach:  # stepping gaits: |v_y| within the reach, the widest-reaching one always kept
-            reach = self.lateral_reach
-            beyond = (commands[:, 1:2].abs() > reach[None, :]) & ~self.stepless[None, :]
-            beyond[:, int(torch.argmax(torch.where(self.stepless, -1.0, reach)))] = False
-            allowed &= ~beyond
+        if self.reach_limit is not None:  # stepping gaits: |v_y| within their reach
+            allowed &= commands[:, 1:2].abs() <= self.reach_limit[None, :]
         return allowed
 
     def candidate_gaits(self, obs: torch.Tensor, allowed: torch.Tensor | None = None) -> torch.Tensor | None:
@@ -751,6 +746,15 @@ def lateral_reach(gait, lateral_limit: float) -> float:
     return 2.0 * lateral_limit * gait.frequency / (1.0 - gait.df_swing)
 
 
+def reach_limits(library, lateral_limit: float) -> tuple[float, ...]:
+    """The ``kinematic_reach`` mask's |v_y^cmd| bound per gait of ``library`` [m/s]: each stepping gait's
+    :func:`lateral_reach`, inf for the widest-reaching one (always a candidate) and for the gaits without swing
+    (``kinematic_lateral_limit`` bounds those)."""
+    reach = [lateral_reach(g, lateral_limit) if g.df_swing > 0.0 else -1.0 for g in library]
+    widest = max(range(len(reach)), key=reach.__getitem__)
+    return tuple(math.inf if r < 0.0 or i == widest else r for i, r in enumerate(reach))
+
+
 def make_gait_selector(
     cfg, requested: torch.Tensor | None, gait_names: tuple[str, ...], start_gait: int, policy_dt: float, obs_dim: int
 ) -> GaitSelector:
@@ -764,9 +768,13 @@ def make_gait_selector(
         stepless = tuple(g.df_swing == 0.0 for g in cfg.gait.library)
         reach = None
         if cfg.predictor.kinematic_reach:
+            if not cfg.predictor.kinematic_mask:
+                raise ValueError(
+                    "predictor.kinematic_reach needs a kinematic criterion (kinematic, kinematic_feasible)"
+                )
             if cfg.gait.lateral_gain <= 0.0:
                 raise ValueError("predictor.kinematic_reach needs gait.lateral_gain > 0 (the lateral feed-forward)")
-            reach = tuple(lateral_reach(g, cfg.gait.lateral_limit) for g in cfg.gait.library)
+            reach = reach_limits(cfg.gait.library, cfg.gait.lateral_limit)
         return PredictiveGaitSelector(
             requested, gait_names, start_gait, policy_dt, obs_dim, cfg.predictor, cfg.seed, stepless, reach
         )
