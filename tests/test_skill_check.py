@@ -73,3 +73,26 @@ def test_the_command_prints_a_row_and_writes_the_json(tmp_path, capsys):
     d = json.loads(out.read_text())
     assert d["checkpoints"]["s3"]["lateral_edges"] is False and d["targets"]["mse"] == 0.05 and d["git"]
     assert skill_check.main(["s3"]) == 2 and "expected LABEL=" in capsys.readouterr().err
+
+
+def test_the_skill_curve_finds_the_first_checkpoint_meeting_each_axis_and_whether_it_is_kept(tmp_path, capsys):
+    """tools/studies/skill_curve.py: checkpoint N holds N + 1 iterations of robots x steps samples; the wall time is
+    the run's summed iteration times (a resumed run's repeated iteration counted once); an axis met at one checkpoint
+    and lost at a later one is reported as not kept."""
+    import skill_curve
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.json").write_text(json.dumps({"env": {"sim": {"num_envs": 4}}, "train": {"num_steps_per_env": 5}}))
+    rows = [{"iteration": i, "wall_s": 6.0} for i in range(1, 31)] + [{"iteration": 21, "wall_s": 12.0}]
+    (run / "metrics.jsonl").write_text("\n".join(json.dumps(r) for r in rows) + "\n{cut")
+    for it, mse, up in ((9, (0.001, 0.2, 0.06), 1.0), (19, (0.001, 0.04, 0.01), 1.0), (29, (0.06, 0.03, 0.01), 1.0)):
+        (tmp_path / f"a_it{it}_tracking.json").write_text(json.dumps(_tracking(mse=mse, upright=(1.0, 1.0, up, 1.0))))
+    r = skill_curve.analyse(str(run), str(tmp_path / "a"))
+    assert [p["iteration"] for p in r["points"]] == [9, 19, 29] and r["points"][0]["samples"] == 10 * 20
+    assert r["points"][0]["wall_min"] == pytest.approx(1.0) and r["points"][2]["wall_min"] == pytest.approx(3.1)
+    f = r["first_met"]
+    assert f["vx"]["iteration"] == 9 and not f["vx"]["kept"]  # lost at 29 (0.06)
+    assert f["vy"]["iteration"] == 19 and f["vy"]["kept"] and f["wz"]["iteration"] == 19
+    assert f["all"]["iteration"] == 19 and not f["all"]["kept"]
+    assert skill_curve.main([f"a={run}:{tmp_path / 'none'}"]) == 2 and "no evaluations" in capsys.readouterr().err
