@@ -125,7 +125,7 @@ def plot(results: dict[str, dict], path: str) -> None:
         ax.set_yscale("log")
         ax.set_title(f"{a} tracking MSE (evaluation)")
         ax.set_xlabel("training samples [M]")
-    axs[3].set_title("least upright share over stand/vx/vy/wz [%]")
+    axs[3].set_title("least upright share, 4 tasks [%]")
     axs[3].set_xlabel("training samples [M]")
     axs[3].legend(fontsize=7)
     fig.tight_layout()

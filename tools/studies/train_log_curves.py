@@ -6,7 +6,7 @@ outlive its session.
 Usage::
 
     python tools/studies/train_log_curves.py docs/results/cpu/ours_s1_train.log runs/ab/ours_pcost_s1.log \\
-        --at 500,1000,2000,3000,4000,4883 --window 100 --skill vy=0.15,wz=0.3 --json curves.json
+        --at 500,1000,2000,3000 --window 100 --skill vy=0.15,wz=0.3 --json curves.json
 
 A ``.jsonl`` argument is read as a run's ``metrics.jsonl`` (or the every-10th-row copies the studies commit). A log
 committed gzipped is read as it is (``X.gz``, or ``X`` when only ``X.gz`` exists).
@@ -87,7 +87,7 @@ def first_below(rows: dict[int, dict[str, float]], key: str, threshold: float, w
 def main(argv=None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("logs", nargs="+", help="console logs of train/ppo_newton.py")
-    ap.add_argument("--at", default="500,1000,2000,3000,4000,4883", help="iterations to report (comma-separated)")
+    ap.add_argument("--at", default="500,1000,2000,2999", help="iterations to report (comma-separated)")
     ap.add_argument("--window", type=int, default=100, help="iterations averaged up to each point (default 100)")
     ap.add_argument("--skill", default="", help="axis=threshold pairs, e.g. vy=0.15,wz=0.3: first iteration below")
     ap.add_argument("--json", default=None, help="also write the table here")

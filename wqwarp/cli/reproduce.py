@@ -33,7 +33,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "--budget",
         choices=sorted(R.BUDGETS),
         default="smoke",
-        help="smoke (minutes, plumbing only), cpu (~4 h on 2 cores: 128 robots x 4883 iterations = 15 M "
+        help="smoke (minutes, plumbing only), cpu (~2.5 h on 2 cores: 128 robots x 3000 iterations = 9.2 M "
         "samples per task, the tasks' own budget; split it over sessions with --tasks and --import-from), "
         "gpu (the paper's 4096 x 4000; use --device cuda:0). Default smoke",
     )
