@@ -27,9 +27,26 @@ def audit_default_dt() -> dict:
 def test_legs_plus_wheels_equal_the_total(audit_default_dt):
     for name, entry in audit_default_dt.items():
         r = entry["results"]["0.005x4"]
-        for p in ("p_cost", "p_mech", "p_joule"):
+        for p in ("p_cost", "p_mech"):
             assert r[p + "_legs"] + r[p + "_wheels"] == pytest.approx(r[p], rel=1e-4, abs=1e-4), (name, p)
             assert r[p + "_legs"] >= 0 and r[p + "_wheels"] >= 0
+        # the electrical total is the robot's net on the shared bus, never below zero without regeneration
+        assert r["p_elec"] >= max(r["p_elec_legs"] + r["p_elec_wheels"], 0.0) - 1e-3, name
+
+
+def test_standing_costs_the_battery_the_knees_copper_and_next_to_no_mechanical_power(audit_default_dt):
+    """Standing, the nominal gait alone: p_cost is almost 0, but the battery pays the copper loss of the leg motors
+    holding the trunk, most of it at the knees (hand check: 6 N m at the knee costs 0.513 x 36 = 18.5 W per knee
+    with the Go1 knee's gear 9.495 and k_m 0.147), and the breakdown by joint kind adds up to the kernel's copper."""
+    r = audit_default_dt["standing"]["results"]["0.005x4"]
+    kinds = r["copper_by_joint_kind"]
+    assert r["p_elec"] > 50.0 and r["p_cost"] < 0.05 * r["p_elec"]  # still settling in this short window
+    assert r["p_elec"] == pytest.approx(r["p_copper_legs"] + r["p_copper_wheels"], rel=0.05)
+    assert sum(k["copper_w"] for k in kinds.values()) == pytest.approx(
+        r["p_copper_legs"] + r["p_copper_wheels"], rel=0.02
+    )
+    assert kinds["knee"]["copper_w"] > 0.7 * r["p_elec"] and 4.0 < kinds["knee"]["torque_rms"] < 8.0
+    assert kinds["knee"]["copper_w"] == pytest.approx(4 * 0.5134 * kinds["knee"]["torque_rms"] ** 2, rel=1e-3)
 
 
 def test_driving_costs_more_wheel_power_than_standing(audit_default_dt):
@@ -83,7 +100,7 @@ def test_json_has_the_documented_fields(tmp_path, capsys):
     fine, coarse = entry["results"]["0.001x20"], entry["results"]["0.005x4"]
     for r in (fine, coarse):
         assert r["window_steps"] == 10 and r["warmup_steps"] == 5
-        for key in ("p_cost", "p_cost_legs", "p_cost_wheels", "p_mech", "p_joule", "v_x", "w_z", "height"):
+        for key in ("p_cost", "p_cost_legs", "p_cost_wheels", "p_mech", "p_elec", "v_x", "w_z", "height"):
             assert isinstance(r[key], float), key
         assert isinstance(r["trunk_touched"], bool)
     assert entry["ratio"]["p_cost"] == pytest.approx(coarse["p_cost"] / fine["p_cost"])

@@ -50,8 +50,10 @@ def test_power_is_logged_per_joint_group_and_the_energy_terms_read_the_substep_a
     total = float(log["Metrics/p_cost"])
     assert total > 0.0
     assert float(log["Metrics/p_cost_legs"]) + float(log["Metrics/p_cost_wheels"]) == pytest.approx(total, rel=1e-4)
-    for k in ("p_mech_legs", "p_mech_wheels", "p_joule_legs", "p_joule_wheels"):
+    for k in ("p_mech_legs", "p_mech_wheels", "p_elec", "p_elec_legs", "p_elec_wheels", "p_copper_legs"):
         assert f"Metrics/{k}" in log
+    # the battery pays at least the copper loss of holding the legs up: p_elec >= p_copper > 0
+    assert float(log["Metrics/p_copper_legs"]) > 0.0 and float(log["Metrics/p_elec"]) > 0.0
     # the reward's energy term is -1e-5 * substep-averaged sum (tau qd)^2 * dt, not the last substep's value
     terms = wp.to_torch(env.reward_terms_wp)
     k = REWARD_TERMS.index("energy")

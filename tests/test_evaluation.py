@@ -38,10 +38,13 @@ def test_task_metrics_on_a_scripted_trajectory():
                 p_cost_wheels=[40.0, 40.0],
                 p_mech_legs=[30.0, 5.0],
                 p_mech_wheels=[20.0, 25.0],
-                p_joule_legs=[1.0, 1.0],
+                p_elec=[90.0, 40.0],
+                p_elec_legs=[70.0, 10.0],
+                p_elec_wheels=[20.0, 30.0],
+                p_copper_legs=[8.0, 2.0],
             ),
         )
-    s = m.summary(robot_mass=15.0)
+    s = m.summary(robot_mass=15.0, electronics_w=5.0)
     # v_x errors: robot 0 always -0.1; robot 1 +0.1, +0.3 alternating -> squares 0.01 and (0.01 + 0.09) / 2 = 0.05
     assert s["mse"] == pytest.approx((0.01 + 0.05) / 2)
     assert s["mean_abs_error"] == pytest.approx((0.1 + 0.2) / 2)
@@ -49,10 +52,13 @@ def test_task_metrics_on_a_scripted_trajectory():
     assert s["mean_p_cost"] == pytest.approx(75.0) and s["mean_p_cost_legs"] == pytest.approx(35.0)
     assert s["mean_p_cost_wheels"] == pytest.approx(40.0)
     assert s["mean_p_mech"] == pytest.approx(40.0) and s["mean_p_mech_wheels"] == pytest.approx(22.5)
-    assert s["mean_p_joule"] == pytest.approx(1.0)
+    assert s["mean_p_elec"] == pytest.approx(65.0) and s["mean_p_elec_legs"] == pytest.approx(40.0)
+    assert s["mean_p_elec_wheels"] == pytest.approx(25.0) and s["mean_p_copper_legs"] == pytest.approx(5.0)
     speed = (0.4 + (np.hypot(0.6, 0.3) + np.hypot(0.8, 0.3)) / 2) / 2
     assert s["mean_speed"] == pytest.approx(speed, rel=1e-5)
     assert s["cost_of_transport"] == pytest.approx(75.0 / (15.0 * 9.81 * speed), rel=1e-5)
+    # the battery's cost of transport counts the electronics draw beside the motors
+    assert s["cost_of_transport_elec"] == pytest.approx((65.0 + 5.0) / (15.0 * 9.81 * speed), rel=1e-5)
     # No cost of transport for yaw and stand tasks, or when the robots barely move.
     for task in ("wz", "stand"):
         m = TaskMetrics(task, torch.zeros(2, 3))

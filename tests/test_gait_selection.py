@@ -575,7 +575,7 @@ def test_estimator_and_predictor_do_not_change_during_evaluation_playback_or_exp
 
     before = params()
     res = run_task(pr, "vx", seconds=1.5, settle=0.5)
-    assert res.mse_axes[0] == pytest.approx(res.mse) and res.mean_p_joule > 0.0
+    assert res.mse_axes[0] == pytest.approx(res.mse) and res.mean_p_elec > 0.0
     assert sum(res.gait_usage.values()) == pytest.approx(1.0)
     for _ in range(60):  # playback (tools/export_usd.py --checkpoint drives the env the same way)
         pr.env.step(pr.policy(pr.env.get_observations()))

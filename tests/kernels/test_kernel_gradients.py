@@ -24,9 +24,11 @@ from wqwarp.kernels.actuation import actuation_gains, apply_actuation, leg_pd_to
 from wqwarp.kernels.gait import nominal_wheel_velocity, swing_height, swing_x
 from wqwarp.kernels.kinematics import compute_leg_fk, compute_leg_ik
 from wqwarp.kernels.power import (
+    POWER_OUTPUTS,
+    MotorArrays,
     accumulate_p_cost_taped,
     accumulate_power,
-    joule_power_term,
+    electrical_power_term,
     p_cost_term,
     p_cost_term_smooth,
     positive_mech_power_term,
@@ -37,6 +39,7 @@ from wqwarp.kernels.state import compute_base_frame
 from wqwarp.rl.config import RewardConfig
 from wqwarp.rl.rewards import TABLE_II
 from wqwarp.robot import constants as C
+from wqwarp.robot.motors import MotorModel
 
 EPS = 1e-3  # float32: central differences with h = 1e-3 leave ~1e-4 relative noise
 RTOL, ATOL = 2e-2, 2e-3
@@ -111,7 +114,7 @@ def _powers(x: wp.array(dtype=float), out: wp.array(dtype=float)):
     tau, qd = x[2 * i], x[2 * i + 1]
     out[3 * i] = p_cost_term(tau, qd)
     out[3 * i + 1] = positive_mech_power_term(tau, qd)
-    out[3 * i + 2] = joule_power_term(tau, qd)
+    out[3 * i + 2] = electrical_power_term(tau, qd, 0.5, 0.2, 0.01)
 
 
 def _launch(kernel, n_out):
@@ -278,11 +281,12 @@ def test_accumulate_power_p_cost_gradient(device):
     qd = rng.uniform(0.5, 2.0, (w_count, DOFS)) * rng.choice([-1, 1], (w_count, DOFS))
 
     def p_cost(tau_a, qd_a):
-        outs = [wp.zeros(w_count, dtype=wp.float32, device=device, requires_grad=True) for _ in range(11)]
+        outs = [wp.zeros(w_count, dtype=wp.float32, device=device, requires_grad=True) for _ in POWER_OUTPUTS]
+        m = MotorArrays.build(**MotorModel().kernel_inputs(), device=device)
         wp.launch(
             accumulate_power,
             dim=w_count,
-            inputs=[tau_a, qd_a, _i32(DOF_INDEX, device), weight],
+            inputs=[tau_a, qd_a, _i32(DOF_INDEX, device), m.copper, m.coulomb, m.viscous, 0.0, 1, weight],
             outputs=outs,
             device=device,
         )

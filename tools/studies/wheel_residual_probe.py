@@ -104,8 +104,8 @@ def main(argv=None) -> int:
         r = res[name]
         print(
             f"{name:>21}: v_x {r['vx']:.3f} m/s | p_cost {r['p_cost']:6.1f} W (legs {r['p_cost_legs']:5.1f}, "
-            f"wheels {r['p_cost_wheels']:5.1f}; wheels mech {r['p_mech_wheels']:5.1f}, Joule "
-            f"{r['p_joule_wheels']:5.1f}) | wheel qd {r['wheel_qd']} | torque {r['wheel_torque']}"
+            f"wheels {r['p_cost_wheels']:5.1f}; wheels mech {r['p_mech_wheels']:5.1f}, electrical "
+            f"{r['p_elec_wheels']:5.1f}) | wheel qd {r['wheel_qd']} | torque {r['wheel_torque']}"
         )
     pairs = [("policy", b) for b in list(ARMS)[1:] + (list(HELD_ARMS) if args.held_wheels else [])]
     pairs += [tuple(NOISE_ARMS)] if args.noise else []

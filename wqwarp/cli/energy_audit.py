@@ -14,11 +14,12 @@ command (v_x, v_y, w_z in the base frame) into leg joint targets (leg PD) and wh
 wheels at a constant 5 rad/s with the robot in free fall (no ground load): it starts at rest at a height
 max(50 m, g T^2 / 2 + 10 m), T = warmup + seconds, so it never reaches the ground inside the run.
 
-What is measured: after ``--warmup`` seconds, the mean over ``--seconds`` seconds of policy steps and over the robots
-of the simulator's own power outputs, each already averaged over the physics substeps of a policy step:
-``p_cost`` = sum |tau| |qd| (the paper's cost), ``p_mech`` = sum max(tau qd, 0), ``p_joule`` = sum max(0.3 tau^2 +
-tau qd, 0), in total and for the 12 leg joints and the 4 wheels apart [W]; the base forward speed v_x in the base
-frame [m/s], the yaw rate w_z [rad/s] and the trunk height [m]; and whether the trunk touched the ground at any
+What is measured: after ``--warmup`` seconds, the mean over ``--seconds`` seconds of policy steps and over the robots of
+the simulator's own power outputs, each already averaged over the physics substeps of a policy step: ``p_cost`` = sum
+|tau| |qd| (the paper's cost), ``p_mech`` = sum max(tau qd, 0), ``p_elec`` = the electrical power the battery pays
+(``wqwarp.robot.motors``: tau qd plus each motor's copper loss, settled over the robot's bus), in total and for the 12
+leg joints and the 4 wheels apart [W], and the copper loss of the legs and of the wheels; the base forward speed v_x in
+the base frame [m/s], the yaw rate w_z [rad/s] and the trunk height [m]; and whether the trunk touched the ground at any
 policy step of the run (warm-up included). ``ratio`` is p_cost at the first setting over p_cost at the last one.
 
 For ``air_wheels`` also, seen at every physics substep (the simulator is built with decimation 1 and stepped
@@ -75,7 +76,7 @@ SCENARIOS: dict[str, tuple[str | None, tuple[float, float, float]]] = {
 }
 """Scenario name -> (nominal gait, or None for the airborne wheel test; command (v_x [m/s], v_y [m/s], w_z [rad/s]))."""
 
-POWERS = ("p_cost", "p_mech", "p_joule")
+POWERS = ("p_cost", "p_mech", "p_elec")
 GROUPS = ("", "_legs", "_wheels")
 
 
@@ -141,9 +142,10 @@ def run_scenario(
     else:  # the nominal gait open loop on the measured wheel contact
         driver = OpenLoopDriver(sim, gait, command, contact="sim")
 
-    power_names = [p + g for p in POWERS for g in GROUPS]
+    power_names = [p + g for p in POWERS for g in GROUPS] + ["p_copper_legs", "p_copper_wheels"]
     sums = dict.fromkeys(power_names, 0.0)
     vx = wz = height = 0.0
+    tau_sq = np.zeros(16)  # per joint, last substep of each window step, mean over the robots
     trunk_steps = 0  # steps (x robots) with the trunk touching the ground, whole run
     wheel_p = np.zeros(4)  # |tau| |qd| per wheel and substep, summed over the window, averaged over the robots
     wheel_qd, wheel_err = np.zeros(4), 0.0
@@ -190,6 +192,7 @@ def run_scenario(
             )
         if not in_window:
             continue
+        tau_sq += (sim.joint_torque.numpy().astype(np.float64) ** 2).mean(0)
         vx += step_vx
         wz += step_wz
         height += step_z
@@ -205,6 +208,7 @@ def run_scenario(
         "v_x": vx * m,
         "w_z": wz * m,
         "height": height * m,
+        "copper_by_joint_kind": copper_by_kind(sim.motor_model, tau_sq * m),
         "trunk_touched": trunk_steps > 0,
         "trunk_contact_steps": trunk_steps,
     }
@@ -221,6 +225,22 @@ def run_scenario(
             }
         )
     return out
+
+
+def copper_by_kind(model, tau_sq) -> dict:
+    """Per joint kind (hip, thigh, knee over the four legs; the four wheels): the RMS output torque [N m] and the
+    copper loss it costs [W] under ``model`` (``wqwarp.robot.motors.MotorModel``), from the window mean of each
+    joint's squared torque ``tau_sq`` (16,) sampled at the last substep of each policy step: the term-by-term
+    reading of ``p_copper_legs`` / ``p_copper_wheels``, which average every substep."""
+    kinds = {"hip": range(0, 12, 3), "thigh": range(1, 12, 3), "knee": range(2, 12, 3), "wheel": range(12, 16)}
+    coeff = model.per_joint()["copper"]
+    return {
+        k: {
+            "torque_rms": float(np.sqrt(np.mean([tau_sq[j] for j in js]))),
+            "copper_w": float(sum(coeff[j] * tau_sq[j] for j in js)),
+        }
+        for k, js in kinds.items()
+    }
 
 
 def _ratio(a: float, b: float) -> float | None:
@@ -249,7 +269,9 @@ def audit(
                 r = results[s]
                 print(
                     f"[{time.perf_counter() - t0:7.1f} s] {name:<10} dt {s:<8} p_cost {r['p_cost']:7.2f} W "
-                    f"(legs {r['p_cost_legs']:.2f}, wheels {r['p_cost_wheels']:.2f})",
+                    f"(legs {r['p_cost_legs']:.2f}, wheels {r['p_cost_wheels']:.2f}) | p_elec {r['p_elec']:7.2f} W "
+                    f"(legs {r['p_elec_legs']:.2f}, copper {r['p_copper_legs']:.2f}; wheels {r['p_elec_wheels']:.2f}, "
+                    f"copper {r['p_copper_wheels']:.2f})",
                     file=sys.stderr,
                 )
         entry = {
@@ -259,7 +281,10 @@ def audit(
         }
         if len(settings) > 1:
             first, last = results[setting_name(*settings[0])], results[setting_name(*settings[-1])]
-            entry["ratio"] = {p: _ratio(first[p], last[p]) for p in ("p_cost", "p_cost_legs", "p_cost_wheels")}
+            entry["ratio"] = {
+                p: _ratio(first[p], last[p])
+                for p in ("p_cost", "p_cost_legs", "p_cost_wheels", "p_elec", "p_elec_legs", "p_elec_wheels")
+            }
         out[name] = entry
     return out
 

@@ -65,8 +65,23 @@ class EvalResult:
     """Mean squared error of each axis (v_x, v_y, w_z) against its command (0 off the task's axis)."""
     mean_p_mech: float = 0.0
     """Mean positive mechanical power sum max(tau qd, 0) over the 16 joints [W] (``wqwarp.kernels.power``)."""
-    mean_p_joule: float = 0.0
-    """Mean electrical power of the Joule model sum max(0.3 tau^2 + tau qd, 0) over the 16 motors [W]."""
+    mean_p_elec: float = 0.0
+    """Mean electrical power the battery pays for the 16 motors [W] (``wqwarp.robot.motors``; electronics apart).
+    Result files before 2026-12-07 hold ``mean_p_joule`` instead: sum max(0.3 tau^2 + tau qd, 0), one coefficient
+    for every motor."""
+    mean_p_elec_legs: float = 0.0
+    """Mean electrical power of the 12 leg motors [W]."""
+    mean_p_elec_wheels: float = 0.0
+    """Mean electrical power of the 4 wheel motors [W]."""
+    mean_p_copper_legs: float = 0.0
+    """Mean copper (I^2 R) loss of the leg motors [W], part of ``mean_p_elec_legs``."""
+    mean_p_copper_wheels: float = 0.0
+    """Mean copper loss of the wheel motors [W], part of ``mean_p_elec_wheels``."""
+    electronics_w: float = 0.0
+    """The motor model's constant electronics draw [W], not in ``mean_p_elec``."""
+    cost_of_transport_elec: float | None = None
+    """(mean_p_elec + electronics_w) / (m g mean_speed) [-]: what the battery pays per weight and distance; None
+    where ``cost_of_transport`` is."""
     predicted_power: dict | None = None
     """Predictive selection: the power predictor's mean output per gait over the measured steps [W]."""
     mean_speed: float = 0.0
@@ -116,8 +131,9 @@ class TaskMetrics:
             self.power[k] += power[k]
         self.steps += 1
 
-    def summary(self, robot_mass: float) -> dict:
-        """Means over all robots and measured steps: the :class:`EvalResult` fields of tracking and power."""
+    def summary(self, robot_mass: float, electronics_w: float = 0.0) -> dict:
+        """Means over all robots and measured steps: the :class:`EvalResult` fields of tracking and power;
+        ``electronics_w`` [W] is the motor model's constant draw, counted in the electrical cost of transport."""
         c = max(self.steps, 1)
         m = {k: float(v.mean()) / c for k, v in self.power.items()}
         mse_axes = [float(x) / c for x in self.sq_axes.mean(0)]
@@ -133,9 +149,17 @@ class TaskMetrics:
             "mean_p_mech": m["p_mech_legs"] + m["p_mech_wheels"],
             "mean_p_mech_legs": m["p_mech_legs"],
             "mean_p_mech_wheels": m["p_mech_wheels"],
-            "mean_p_joule": m["p_joule_legs"] + m["p_joule_wheels"],
+            "mean_p_elec": m["p_elec"],
+            "mean_p_elec_legs": m["p_elec_legs"],
+            "mean_p_elec_wheels": m["p_elec_wheels"],
+            "mean_p_copper_legs": m["p_copper_legs"],
+            "mean_p_copper_wheels": m["p_copper_wheels"],
+            "electronics_w": electronics_w,
             "mean_speed": speed,
             "cost_of_transport": m["p_cost"] / (robot_mass * 9.81 * speed) if translating else None,
+            "cost_of_transport_elec": (
+                (m["p_elec"] + electronics_w) / (robot_mass * 9.81 * speed) if translating else None
+            ),
         }
 
 
@@ -146,7 +170,7 @@ DELTA_KEYS = (
     "mean_p_cost_legs",
     "mean_p_cost_wheels",
     "mean_p_mech",
-    "mean_p_joule",
+    "mean_p_elec",
     "upright",
     "falls",
 )

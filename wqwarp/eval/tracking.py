@@ -110,7 +110,7 @@ def _run_task(
         task=task,
         num_robots=n,
         seconds=seconds,
-        **metrics.summary(env.sim.robot_mass),
+        **metrics.summary(env.sim.robot_mass, env.sim.motor_model.electronics_w),
         upright=float((~fell).float().mean()),
         falls=falls,
         max_push=max_push,

@@ -47,7 +47,7 @@ def rollout(
     n = env.num_envs
     cmd = torch.tensor([[vx, 0.0, 0.0]] * n)
     obs = start_rollout(env, cmd, seconds)
-    keys = ("p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_joule_legs", "p_joule_wheels")
+    keys = ("p_cost_legs", "p_cost_wheels", "p_mech_legs", "p_mech_wheels", "p_elec_legs", "p_elec_wheels")
     acc: dict = {k: [] for k in (*keys, "wheel_qd", "wheel_target", "wheel_torque", "vx")}
     per_robot: list[torch.Tensor] = []  # (n, 4) wheel actions of each step after settling
     usage = torch.zeros(env.num_gaits)

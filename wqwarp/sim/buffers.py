@@ -37,8 +37,8 @@ class SimBuffers:
     """(N,) paper power cost sum |tau| |qd| [W], substep average (``wqwarp.kernels.power``)."""
     p_mech: wp.array
     """(N,) positive mechanical power [W], substep average."""
-    p_joule: wp.array
-    """(N,) Joule-model electrical power [W], substep average."""
+    p_elec: wp.array
+    """(N,) electrical power the battery pays for the 16 joints [W], substep average (``wqwarp.robot.motors``)."""
     p_cost_legs: wp.array
     """(N,) p_cost of the 12 leg joints [W]."""
     p_cost_wheels: wp.array
@@ -47,10 +47,14 @@ class SimBuffers:
     """(N,) p_mech of the legs [W]."""
     p_mech_wheels: wp.array
     """(N,) p_mech of the wheels [W]."""
-    p_joule_legs: wp.array
-    """(N,) p_joule of the legs [W]."""
-    p_joule_wheels: wp.array
-    """(N,) p_joule of the wheels [W]."""
+    p_elec_legs: wp.array
+    """(N,) p_elec of the legs [W] (their signed bus share under a shared bus)."""
+    p_elec_wheels: wp.array
+    """(N,) p_elec of the wheels [W]."""
+    p_copper_legs: wp.array
+    """(N,) copper (I^2 R) loss of the leg motors [W], inside p_elec_legs."""
+    p_copper_wheels: wp.array
+    """(N,) copper loss of the wheel motors [W], inside p_elec_wheels."""
     torque_sq: wp.array
     """(N,) substep average of sum tau^2 [(N m)^2]."""
     power_sq: wp.array

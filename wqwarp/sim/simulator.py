@@ -33,6 +33,7 @@ from wqwarp.kernels.state import (
     scatter_state_rows,
 )
 from wqwarp.robot import asset as robot
+from wqwarp.robot.motors import MotorModel
 from wqwarp.sim.backends import BACKENDS, PhysicsBackend
 from wqwarp.sim.backends.mujoco_cpu import MujocoCpuBackend
 from wqwarp.sim.buffers import BUFFER_NAMES, SimBuffers
@@ -55,13 +56,13 @@ class Simulator(SimBuffers):
     ``motor_strength`` (N, 16) [-]. Outputs after :meth:`step`: ``joint_q`` (N, 23), ``joint_qd`` (N, 22),
     ``body_q`` (N, 21) transforms, ``body_qd`` (N, 21) spatial vectors, and every array of
     :class:`~wqwarp.sim.buffers.SimBuffers` (its attributes are the simulator's own): ``joint_torque`` (N, 16) [N m]
-    (last substep), ``p_cost`` / ``p_mech`` / ``p_joule`` (N,) [W] averaged over the substeps, each also split into
-    ``*_legs`` and ``*_wheels``, ``torque_sq`` / ``power_sq`` (N,), ``wheel_force`` (N, 4) [N], ``wheel_contact``
-    (N, 4) and ``body_collision`` (N, 9) int32 flags, ``unstable`` (N,) int32: 1 for a robot whose simulation
-    diverged in this step (MuJoCo reset its data, or a coordinate, velocity or torque is non-finite or beyond the
-    ``SimConfig.unstable_*`` limits; the caller must reset it), ``actuated_q`` / ``actuated_qd`` (N, 16) the actuated
-    joints in project order, and the base frame ``base_lin_vel`` / ``base_ang_vel`` / ``projected_gravity`` (N, 3),
-    ``base_height`` / ``base_yaw`` (N,).
+    (last substep), ``p_cost`` / ``p_mech`` / ``p_elec`` (N,) [W] averaged over the substeps, each also split into
+    ``*_legs`` and ``*_wheels``, the copper loss ``p_copper_legs`` / ``p_copper_wheels`` (N,) [W], ``torque_sq`` /
+    ``power_sq`` (N,), ``wheel_force`` (N, 4) [N], ``wheel_contact`` (N, 4) and ``body_collision`` (N, 9) int32 flags,
+    ``unstable`` (N,) int32: 1 for a robot whose simulation diverged in this step (MuJoCo reset its data, or a
+    coordinate, velocity or torque is non-finite or beyond the ``SimConfig.unstable_*`` limits; the caller must reset
+    it), ``actuated_q`` / ``actuated_qd`` (N, 16) the actuated joints in project order, and the base frame
+    ``base_lin_vel`` / ``base_ang_vel`` / ``projected_gravity`` (N, 3), ``base_height`` / ``base_yaw`` (N,).
     """
 
     def __init__(self, cfg: SimConfig):
@@ -93,6 +94,9 @@ class Simulator(SimBuffers):
             self.joint_f = self.control.joint_f.reshape((n, lay.dofs_per_world))
             self.coord_index = wp.array(lay.actuated_coord, dtype=wp.int32)
             self.dof_index = wp.array(lay.actuated_dof, dtype=wp.int32)
+            self.motor_model = MotorModel()
+            """The motors as the battery sees them (``wqwarp.robot.motors``): the electrical power ``p_elec``."""
+            self._motor_arrays = power.MotorArrays.build(**self.motor_model.kernel_inputs())
             SimBuffers.__init__(self, **SimBuffers.allocate(n))
             self._default_q = robot.default_joint_q(lay)
             self._all_ids = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32)
@@ -150,6 +154,7 @@ class Simulator(SimBuffers):
             self.joint_qd,
             [getattr(self, k) for k in power.POWER_OUTPUTS],
             self.dof_index,
+            self._motor_arrays,
             weight=1.0 / cfg.decimation,
             device=self.device,
             record_cmd=True,
