@@ -325,3 +325,28 @@ def test_command_sampling_and_the_push_rotation():
     yaw = torch.tensor([0.0, np.pi / 2])  # trunk along world x, then along world y
     world = push_to_world(yaw, torch.tensor([[1.0, 0.5], [1.0, 0.5]]))
     torch.testing.assert_close(world, torch.tensor([[1.0, 0.5], [-0.5, 1.0]]))
+
+
+def test_the_electrical_power_measure_feeds_the_predictor_labels_and_the_power_reward():
+    """``power_measure: electrical``: each labelled window's target is the robot's mean p_elec over the window (not
+    its p_cost), and the reward's power term reads p_elec."""
+    env = _env("ours", power_measure="electrical")
+    sel, h = env.gait_selector, env.gait_selector.horizon
+    env.collect_training_data = True
+    weights, k = wp.to_torch(env.reward_weights), REWARD_TERMS.index("p_cost")
+    weights[k] = -0.02
+    p_elec, p_cost = [], []
+    for _ in range(h + 6):
+        env.step(torch.zeros(N, env.num_actions))
+        p_elec.append(env.tv["p_elec"].clone())
+        p_cost.append(env.tv["p_cost"].clone())
+    terms = wp.to_torch(env.reward_terms_wp)[:, k]
+    torch.testing.assert_close(terms, -0.02 * env.tv["p_elec"] * env.dt, rtol=1e-4, atol=1e-7)
+    labels = torch.cat([sel.replay.y[: sel.replay.n], sel.holdout.y[: sel.holdout.n]])
+    assert labels.numel() > 0
+    pe, pc = torch.stack(p_elec), torch.stack(p_cost)  # (steps, N)
+    windows_e = torch.stack([pe[s : s + h].mean(0) for s in range(7)])  # every window start the run allows
+    windows_c = torch.stack([pc[s : s + h].mean(0) for s in range(7)])
+    for y in labels:
+        assert torch.isclose(windows_e, y, rtol=1e-4).any(), float(y)
+        assert not torch.isclose(windows_c, y, rtol=1e-2).any(), float(y)

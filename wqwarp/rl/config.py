@@ -22,6 +22,11 @@ from wqwarp.sim.config import SimConfig
 from wqwarp.utils.checked_config import CheckedConfig, check_positive, check_ranges, require
 from wqwarp.utils.migration import fill_missing, migrate, since_default
 
+PowerMeasure = Literal["mechanical", "electrical"]
+"""The power the energy-aware selection and the power reward read (:attr:`EnvConfig.power_measure`)."""
+POWER_OUTPUT = {"mechanical": "p_cost", "electrical": "p_elec"}
+"""The simulator's output each measure reads (``wqwarp.kernels.power``)."""
+
 GaitSelection = Literal["none", "fixed", "predictive"]
 """How each robot's nominal gait is chosen (:attr:`GaitConfig.selection`)."""
 PowerNormalization = Literal["mean", "watts"]
@@ -530,6 +535,13 @@ class EnvConfig(CheckedConfig):
     estimator: EstimatorConfig = field(default_factory=EstimatorConfig)
     predictor: PredictorConfig = field(default_factory=PredictorConfig)
     domain_rand: DomainRandConfig = field(default_factory=DomainRandConfig)
+    power_measure: PowerMeasure = field(
+        default="mechanical", metadata=migrate("mechanical", "the paper's p_cost, the only measure before the setting")
+    )
+    """What the energy-aware parts read (beyond the paper): ``mechanical`` (default, the paper's p_cost = sum |tau|
+    |qd|) or ``electrical`` (``p_elec``, what the battery pays under the motor model of ``wqwarp.robot.motors``).
+    It sets the power predictor's labels, so the selection ranks the gaits by that measure, and the reward's power
+    term (``reward.p_cost``, weight 0 in every task). Both measures are reported whatever is chosen."""
     seed: int = 1
     """Seed of the env's random streams (spawn yaws, commands, pushes, sampled gaits); offset by the rank under
     torchrun."""

@@ -30,7 +30,7 @@ from wqwarp.kernels.rewards import RewardInputs, make_reward_kernel
 from wqwarp.rl import events
 from wqwarp.rl import observations as obs_terms
 from wqwarp.rl.commands import sample_commands, uniform
-from wqwarp.rl.config import EnvConfig
+from wqwarp.rl.config import POWER_OUTPUT, EnvConfig
 from wqwarp.rl.estimator import EstimatorTrainer, StateEstimator
 from wqwarp.rl.gait_selection import make_gait_selector, tracking_error
 from wqwarp.rl.observations import ACTOR_TERMS, ESTIMATE, PRIVILEGED_TERMS
@@ -274,7 +274,9 @@ class WheeledGo1Env(VecEnv):
         time_out = (self.episode_length_buf >= self.max_episode_length) & ~unstable
         dones = died | time_out
         error = tracking_error(self.commands, self.tv["base_lin_vel"], self.tv["base_ang_vel"])
-        self.gait_selector.record_step(self.tv["p_cost"], error, self.active_gait(), self.commands, dones, fell)
+        self.gait_selector.record_step(
+            self.tv[POWER_OUTPUT[self.cfg.power_measure]], error, self.active_gait(), self.commands, dones, fell
+        )
         self.prev2_actions[:] = self.prev_actions
         self.prev_actions[:] = self.actions
         # Metrics see the state before resets; the observations below re-read it after resets and pushes.
@@ -385,7 +387,7 @@ class WheeledGo1Env(VecEnv):
         inp.action, inp.prev_action, inp.prev2_action = self.actions_wp, self.prev_actions_wp, self.prev2_actions_wp
         inp.actuated_qd, inp.prev_actuated_qd = sim.actuated_qd, self.prev_qd_wp
         inp.torque_sq, inp.power_sq, inp.body_collision = sim.torque_sq, sim.power_sq, sim.body_collision
-        inp.p_cost, inp.actuated_q = sim.p_cost, sim.actuated_q
+        inp.p_cost, inp.actuated_q = getattr(sim, POWER_OUTPUT[self.cfg.power_measure]), sim.actuated_q
         inp.joint_soft_low, inp.joint_soft_high = self.joint_soft_limits_wp
         inp.sigma, inp.dt = self.cfg.reward.tracking_sigma, self.dt
         return inp
