@@ -361,16 +361,18 @@ def _print_header(log: TextIO, runner, opts: TrackingOptions, phys: str) -> None
     )
     print(
         f"{'task':>9} {'MSE':>8} {'|err|':>8} {'p_cost [W]':>11} {'legs':>7} {'wheels':>7} {'CoT':>6} "
-        f"{'upright':>8}  gaits",
+        f"{'p_elec [W]':>11} {'legs':>7} {'wheels':>7} {'CoT_el':>6} {'upright':>8}  gaits",
         file=log,
     )
 
 
 def _print_row(log: TextIO, r: EvalResult, label: str) -> None:
     cot = f"{r.cost_of_transport:6.2f}" if r.cost_of_transport is not None else f"{'-':>6}"
+    cot_el = f"{r.cost_of_transport_elec:6.2f}" if r.cost_of_transport_elec is not None else f"{'-':>6}"
     print(
         f"\r{label:>9} {r.mse:8.4f} {r.mean_abs_error:8.3f} {r.mean_p_cost:11.1f} {r.mean_p_cost_legs:7.1f} "
-        f"{r.mean_p_cost_wheels:7.1f} {cot} {100 * r.upright:7.1f}%  "
+        f"{r.mean_p_cost_wheels:7.1f} {cot} {r.mean_p_elec:11.1f} {r.mean_p_elec_legs:7.1f} "
+        f"{r.mean_p_elec_wheels:7.1f} {cot_el} {100 * r.upright:7.1f}%  "
         + " ".join(f"{g} {100 * v:.0f}%" for g, v in (r.gait_usage or {}).items() if v > 0)
         + ("  (commands outside the training range)" if r.outside_training_range else ""),
         file=log,

@@ -79,7 +79,7 @@ def status_line(m: dict, total: int, eta_s: float) -> str:
         f"reward {g('mean_reward'):7.2f} | err vx {g('Metrics/vx_error'):.2f} vy {g('Metrics/vy_error'):.2f} "
         f"wz {g('Metrics/wz_error'):.2f} | power {g('Metrics/p_cost'):6.1f} W (legs "
         f"{g('Metrics/p_cost_legs'):5.1f}, wheels {g('Metrics/p_cost_wheels'):5.1f}) | "
-        f"{g('steps_per_s'):6.0f} steps/s"
+        f"elec {g('Metrics/p_elec'):6.1f} W | {g('steps_per_s'):6.0f} steps/s"
     )
     usage = usage_from_scalars(m)
     if usage:
