@@ -337,6 +337,9 @@ def test_protocols_name_the_gaits_of_the_checkpoints_library(tmp_path, save_chec
     emap = run_protocol("energymap", make_options("energymap", checkpoint=path, grid=2, seconds=0.2, png=str(png)), log)
     cell = emap["cells"][0]
     assert list(cell["measured_p_cost"]) == list(cell["predicted_p_cost"]) == names and png.stat().st_size > 0
+    # both measures per gait (holding the trunk up costs the battery copper losses in every gait), each its winner
+    assert all(cell["measured_p_elec"][g] > 0.0 for g in names)
+    assert cell["measured_winner_elec"] in names and emap["power_measure"] == "mechanical"
 
 
 def test_the_selection_criterion_can_be_swapped_at_evaluation_on_one_policy(tmp_path):

@@ -117,6 +117,7 @@ def test_train_writes_checkpoint_resumes_and_evaluates(tmp_path):
     for k, seg in enumerate(d["segments"]):
         part = ser["p_cost"][25 * k : 25 * (k + 1)]
         assert seg["mean_p_cost"] == pytest.approx(sum(part) / 25, rel=1e-3, abs=1e-3)
+        assert min(ser["p_elec"][25 * k : 25 * (k + 1)]) > 0.0 and seg["mean_p_elec"] > 0.0
         assert sum(seg["gait_usage"].values()) == pytest.approx(1.0)
         running = ser["gait_running"][25 * k : 25 * (k + 1)]
         assert seg["gait_usage"]["driving"] == pytest.approx(running.count("driving") / 25)

@@ -70,7 +70,7 @@ def measure_forced_gaits(runner, commands: torch.Tensor, gaits: torch.Tensor, se
         obs = start_rollout(env, commands, seconds)
         steps = max(2, int(round(seconds / env.dt)))
         n, dev = env.num_envs, env.device
-        acc = {k: torch.zeros(n, device=dev) for k in ("p", "legs", "wheels", "err", "wrong_gait", "count")}
+        acc = {k: torch.zeros(n, device=dev) for k in ("p", "legs", "wheels", "elec", "err", "wrong_gait", "count")}
         acc["pred"] = torch.zeros(n, sel.num_gaits, device=dev)
         if sel.tracker is not None:
             acc["pred_err"] = torch.zeros(n, sel.num_gaits, device=dev)
@@ -86,6 +86,7 @@ def measure_forced_gaits(runner, commands: torch.Tensor, gaits: torch.Tensor, se
                 acc["p"] += env.tv["p_cost"]
                 acc["legs"] += env.tv["p_cost_legs"]
                 acc["wheels"] += env.tv["p_cost_wheels"]
+                acc["elec"] += env.tv["p_elec"]
                 acc["pred"] += p_now
                 if e_now is not None:
                     acc["pred_err"] += e_now
@@ -118,7 +119,7 @@ def summarise_cells(cells: list, gaits: list[str], m: dict, allowed: torch.Tenso
         cell = {k: v[i * g : (i + 1) * g] for k, v in m.items()}
         per = {
             key: {gaits[k]: float(cell[key][k]) for k in range(g)}
-            for key in ("p", "legs", "wheels", "err", "wrong_gait")
+            for key in ("p", "legs", "wheels", "elec", "err", "wrong_gait")
         }
         predicted = {gaits[k]: float(cell["pred"].mean(0)[k]) for k in range(g)}  # from all the cell's robots' obs
         fell = [bool(cell["fell"][k]) for k in range(g)]
@@ -131,12 +132,15 @@ def summarise_cells(cells: list, gaits: list[str], m: dict, allowed: torch.Tenso
                 "measured_p_cost": per["p"],
                 "measured_p_cost_legs": per["legs"],
                 "measured_p_cost_wheels": per["wheels"],
+                "measured_p_elec": per["elec"],
                 "sq_velocity_error": per["err"],
                 "fell": dict(zip(gaits, fell, strict=True)),
                 "share_not_in_forced_gait": per["wrong_gait"],
                 "predicted_p_cost": predicted,
                 "measured_winner": _cheapest(gaits, cell["p"], up),
                 "measured_winner_tracking": _cheapest(gaits, cell["p"], ok),
+                "measured_winner_elec": _cheapest(gaits, cell["elec"], up),
+                "measured_winner_elec_tracking": _cheapest(gaits, cell["elec"], ok),
                 "predicted_winner": min(predicted, key=predicted.get),
                 "selected": _cheapest(
                     gaits,
@@ -196,14 +200,17 @@ def energy_map(opts: EnergyMapOptions, log: TextIO) -> dict:
     sel = runner.env.gait_selector
     kinematic, feasible = sel.rule_candidates(None, cell_cmd, cell_means(m, "pred_err", len(cells)))
     out_cells = summarise_cells(cells, gaits, m, both_candidates(kinematic, feasible))
-    agree = [cl["measured_winner"] == cl["predicted_winner"] for cl in out_cells if cl["measured_winner"]]
+    measure = runner.env.cfg.power_measure  # what the predictor was trained to forecast
+    key = "measured_winner" if measure == "mechanical" else "measured_winner_elec"
+    agree = [cl[key] == cl["predicted_winner"] for cl in out_cells if cl[key]]
     print(
         f"\r{runner.preset} checkpoint (iteration {runner.iteration}): {len(cells)} cells x {g} gaits, "
-        f"{opts.seconds:g} s; predicted winner = measured winner in {sum(agree)}/{len(agree)} cells",
+        f"{opts.seconds:g} s; predicted winner = measured winner ({measure} power) in {sum(agree)}/{len(agree)} cells",
         file=log,
     )
-    wins = {gt: sum(cl["measured_winner"] == gt for cl in out_cells) for gt in gaits}
-    print("measured winners: " + ", ".join(f"{gt} {w}" for gt, w in wins.items()), file=log)
+    for label, k in (("mechanical", "measured_winner"), ("electrical", "measured_winner_elec")):
+        wins = {gt: sum(cl[k] == gt for cl in out_cells) for gt in gaits}
+        print(f"measured winners, {label} power: " + ", ".join(f"{gt} {w}" for gt, w in wins.items()), file=log)
     untracked = sum(cl["measured_winner"] != cl["measured_winner_tracking"] for cl in out_cells)
     print(
         f"cells where the cheapest gait does not track its command (squared error > {TRACKING_LIMIT}): {untracked}",
@@ -232,6 +239,7 @@ def energy_map(opts: EnergyMapOptions, log: TextIO) -> dict:
         "grid": opts.grid,
         "seconds": opts.seconds,
         "wall_time_s": time.time() - t0,
+        "power_measure": measure,
         "winner_agreement": sum(agree) / max(len(agree), 1),
         "tracking_limit": TRACKING_LIMIT,
         "cheapest_does_not_track": untracked,

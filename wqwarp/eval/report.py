@@ -523,15 +523,17 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
         "",
         "One command axis per task, spread evenly over the paper's range (v_x [-1, 1] m/s, v_y [-0.7, 0.7] m/s, "
         "w [-0.7, 0.7] rad/s; stand: all zero), held for the whole run; metrics after 2 s of settling over all "
-        "robots, falls beside. p_cost = sum |tau| |qd| over the 16 joints; CoT = p_cost / (m g mean speed). "
+        "robots, falls beside. p_cost = sum |tau| |qd| over the 16 joints; CoT = p_cost / (m g mean speed); p_elec = "
+        "the battery's power under the motor model of wqwarp/robot/motors.py (copper losses included; '-' in results "
+        "before it existed). "
         "Mean ± standard deviation over seeds where there are several.",
         "",
     ]
     if "tracking_power" in summary["figures"]:
         lines += [f"![tracking and power]({rel}/{summary['figures']['tracking_power']})", ""]
     lines += [
-        "| method | task | MSE | p_cost [W] | legs [W] | wheels [W] | p_mech [W] | CoT | falls | gaits |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| method | task | MSE | p_cost [W] | legs [W] | wheels [W] | p_mech [W] | CoT | p_elec [W] | falls | gaits |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for p, e in pres.items():
         for task in ("vx", "vy", "wz", "stand"):
@@ -543,7 +545,7 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
                 f"| {PAPER_NAMES[p]} | {task} | {_fmt(r['mse'], 4)} | {_fmt(r['mean_p_cost'])} | "
                 f"{_fmt(r['mean_p_cost_legs'])} | {_fmt(r['mean_p_cost_wheels'])} | "
                 f"{_fmt(r['mean_p_mech'])} | "
-                f"{_fmt(r['cost_of_transport'], 2)} | {_fmt(r['falls'], 0)} | {gaits} |"
+                f"{_fmt(r['cost_of_transport'], 2)} | {_fmt(r.get('mean_p_elec'))} | {_fmt(r['falls'], 0)} | {gaits} |"
             )
         for task in ("vx", "stand"):  # the nominal gait with zero residual (stage nominal), the energy floor
             r = e.get("nominal", {}).get(task)
@@ -552,7 +554,8 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
                     f"| {PAPER_NAMES[p]}, nominal gait alone | {task} | {_fmt(r['mse'], 4)} | "
                     f"{_fmt(r['mean_p_cost'])} | {_fmt(r['mean_p_cost_legs'])} | "
                     f"{_fmt(r['mean_p_cost_wheels'])} | {_fmt(r['mean_p_mech'])} | "
-                    f"{_fmt(r['cost_of_transport'], 2)} | {_fmt(r['falls'], 0)} | driving (forced), "
+                    f"{_fmt(r['cost_of_transport'], 2)} | {_fmt(r.get('mean_p_elec'))} | {_fmt(r['falls'], 0)} | "
+                    "driving (forced), "
                     "every action 0 |"
                 )
     checks = _ordering_checks(summary)

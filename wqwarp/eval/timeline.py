@@ -53,6 +53,7 @@ SERIES_KEYS = (
     "p_cost",
     "p_cost_legs",
     "p_cost_wheels",
+    "p_elec",
     "gait_requested",
     "gait_running",
     "wheel_fr_height",
@@ -81,7 +82,7 @@ def _run_timeline(runner, segments: Segments) -> tuple[list[dict], dict, torch.T
     k = 0
     for cmd, sec in segments:
         c = torch.tensor([cmd] * n, dtype=torch.float32)
-        acc = {"p": 0.0, "legs": 0.0, "wheels": 0.0, "err": 0.0, "count": 0}
+        acc = {"p": 0.0, "legs": 0.0, "wheels": 0.0, "elec": 0.0, "err": 0.0, "count": 0}
         usage = torch.zeros(len(names))
         env.hold_commands(c)
         for _ in range(int(round(sec / env.dt))):
@@ -94,12 +95,13 @@ def _run_timeline(runner, segments: Segments) -> tuple[list[dict], dict, torch.T
             acc["p"] += float(tv["p_cost"].mean())
             acc["legs"] += float(tv["p_cost_legs"].mean())
             acc["wheels"] += float(tv["p_cost_wheels"].mean())
+            acc["elec"] += float(tv["p_elec"].mean())
             acc["err"] += float(((v - c) ** 2).sum(1).mean())
             acc["count"] += 1
             series["t"].append(round(k * env.dt, 4))
             series["command"].append(list(cmd))
             series["v"].append([round(float(x), 4) for x in v[0]])
-            for key in ("p_cost", "p_cost_legs", "p_cost_wheels"):
+            for key in ("p_cost", "p_cost_legs", "p_cost_wheels", "p_elec"):
                 series[key].append(round(float(tv[key][0]), 3))
             series["gait_requested"].append(names[int(env.requested_gait()[0])])
             series["gait_running"].append(names[int(running[0])])
@@ -113,6 +115,7 @@ def _run_timeline(runner, segments: Segments) -> tuple[list[dict], dict, torch.T
                 "mean_p_cost": acc["p"] / m,
                 "mean_p_cost_legs": acc["legs"] / m,
                 "mean_p_cost_wheels": acc["wheels"] / m,
+                "mean_p_elec": acc["elec"] / m,
                 "mean_sq_velocity_error": acc["err"] / m,
                 "gait_usage": {g: float(usage[i] / usage.sum()) for i, g in enumerate(names)},
             }
@@ -155,13 +158,16 @@ def timeline(opts: TimelineOptions, log: TextIO) -> dict:
         file=log,
     )
     print(
-        f"{'command':>18} {'p_cost':>7} {'legs':>6} {'wheels':>6} {'sq err':>7}  gaits (share of robot-steps)", file=log
+        f"{'command':>18} {'p_cost':>7} {'legs':>6} {'wheels':>6} {'p_elec':>7} {'sq err':>7}  "
+        "gaits (share of robot-steps)",
+        file=log,
     )
     for s in summary:
         gaits = " ".join(f"{g} {100 * v:.0f}%" for g, v in s["gait_usage"].items() if v > 0)
         print(
             f"{str(tuple(s['command'])):>18} {s['mean_p_cost']:7.1f} {s['mean_p_cost_legs']:6.1f} "
-            f"{s['mean_p_cost_wheels']:6.1f} {s['mean_sq_velocity_error']:7.3f}  {gaits}",
+            f"{s['mean_p_cost_wheels']:6.1f} {s.get('mean_p_elec', float('nan')):7.1f} "
+            f"{s['mean_sq_velocity_error']:7.3f}  {gaits}",
             file=log,
         )
     return {
@@ -209,10 +215,14 @@ def draw_timeline(out: dict, path: str, command: str | None = None) -> None:
     ax[2].legend(loc="upper right", fontsize=8)
     ax[3].plot(t, s["p_cost_legs"], lw=1, label="legs")
     ax[3].plot(t, s["p_cost_wheels"], lw=1, label="wheels")
+    shown = ["p_cost_legs", "p_cost_wheels"]
+    if "p_elec" in s:  # results before 2026-12-07 have no electrical series
+        ax[3].plot(t, s["p_elec"], lw=1, color="k", ls="--", label="electrical (all)")
+        shown.append("p_elec")
     settled = t >= min(0.5, t[-1] / 2)  # robots spawn slightly above the ground: the first landing dwarfs the rest
-    top = max(np.max(np.asarray(s["p_cost_legs"])[settled]), np.max(np.asarray(s["p_cost_wheels"])[settled]))
+    top = max(np.max(np.asarray(s[k])[settled]) for k in shown)
     ax[3].set_ylim(0, 1.15 * top + 1.0)
-    ax[3].set_ylabel("p_cost [W]\n(spawn landing clipped)")
+    ax[3].set_ylabel("power [W]\n(spawn landing clipped)")
     ax[3].set_xlabel("time [s]")
     ax[3].legend(loc="upper right", fontsize=8)
     fig.suptitle(f"{out['preset']} (iteration {out['iteration']}), robot 0")
