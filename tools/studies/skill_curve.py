@@ -26,18 +26,11 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # the sibling skill_check.py, as a script or a module
 from skill_check import MSE_TARGET, check  # noqa: E402
+from skill_check import _read as _load  # noqa: E402  (a JSON file, or a one-line usage error)
 
 from wqwarp.cli.args import UsageError, add_result_options, doc_parser, entry_point  # noqa: E402
 
 AXES = ("vx", "vy", "wz")
-
-
-def _load(path: str) -> dict:
-    try:
-        with open(path, encoding="utf-8") as f:
-            return json.load(f)
-    except (OSError, json.JSONDecodeError) as e:
-        raise UsageError(f"{path}: cannot read ({e})") from None
 
 
 def wall_seconds(run: str) -> dict[int, float]:

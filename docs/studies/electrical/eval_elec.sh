@@ -3,7 +3,7 @@
 # folder, NAME = the result prefix, IT = the checkpoint iteration (default 2999: the 9.2 M budget). The evaluation of
 # docs/studies/skill_levers/eval_run.sh (evaluation seed 1, 100 robots x 20 s per task, stand, v_x, v_y, w); every
 # result JSON carries p_cost and p_elec (legs, wheels, copper) and both costs of transport. With NOMINAL=1 also the
-# nominal gait alone (--zero-residual) on stand and v_x.
+# nominal driving gait alone (--zero-residual --force-gait driving, as the reproduction's nominal stage) on stand and v_x.
 set -euo pipefail
 RUN=$1
 NAME=$2
@@ -14,6 +14,6 @@ python train/evaluate.py --checkpoint $RUN/model_$IT.pt --preset ours --tasks st
   --seconds 20 --seed 1 --json $O/${NAME}_it${IT}_tracking.json
 if [ "${NOMINAL:-0}" = 1 ]; then
   python train/evaluate.py --checkpoint $RUN/model_$IT.pt --preset ours --tasks stand,vx --num-envs 100 \
-    --seconds 20 --seed 1 --zero-residual --json $O/${NAME}_it${IT}_nominal.json
+    --seconds 20 --seed 1 --zero-residual --force-gait driving --json $O/${NAME}_it${IT}_nominal.json
 fi
 echo done $NAME
