@@ -1,0 +1,110 @@
+"""How a policy stands, and what its posture costs the battery: a checkpoint's robots held at the zero command, the
+trunk height, each leg joint kind's mean angle and RMS torque, and the copper loss that torque costs under the motor
+model (``wqwarp.robot.motors``), beside the nominal driving gait alone (every action 0) on the same robots.
+
+Usage::
+
+    python tools/studies/standing_posture.py --checkpoint runs/i47/reach_s5/model_2999.pt [--robots 8]
+        [--seconds 6] [--json PATH]
+
+Measured over the last ``--seconds`` minus 2 s (the first 2 s settle); nothing learns. The gait is the one the
+checkpoint's selection picks for the policy (its share is reported) and driving, forced, for the nominal gait.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from wqwarp.cli.args import UsageError, add_result_options, doc_parser, entry_point
+
+KINDS = {"hip": slice(0, 12, 3), "thigh": slice(1, 12, 3), "knee": slice(2, 12, 3)}
+SETTLE_S = 2.0
+"""Seconds before the measurement starts."""
+
+
+def measure(runner, zero_residual: bool, seconds: float) -> dict:
+    """Trunk height [m], per joint kind the mean angle [rad] and RMS torque [N m] and their copper loss [W] (four
+    legs), the four hip angles, the running gait's shares and p_elec [W], over robots and the measured steps."""
+    import numpy as np
+    import torch
+
+    from wqwarp.eval.rollout import evaluation_session, start_rollout
+
+    env = runner.env
+    n = env.num_envs
+    coeff = np.asarray(env.sim.motor_model.per_joint()["copper"])
+    with evaluation_session(env), torch.no_grad():
+        if zero_residual:
+            env.gait_selector.force(torch.zeros(n, dtype=torch.long, device=env.device))  # gait 0: driving
+        obs = start_rollout(env, torch.zeros(n, 3, device=env.device), seconds)
+        height, q, tau_sq, p_elec, usage, count = 0.0, np.zeros(16), np.zeros(16), 0.0, torch.zeros(env.num_gaits), 0
+        for k in range(int(round(seconds / env.dt))):
+            action = torch.zeros(n, env.num_actions, device=env.device) if zero_residual else runner.policy(obs)
+            obs, _, _, _ = env.step(action)
+            if k * env.dt < SETTLE_S:
+                continue
+            tv = env.tv
+            height += float(tv["base_height"].mean())
+            q += tv["actuated_q"].mean(0).cpu().numpy()
+            tau_sq += (tv["joint_torque"].cpu().numpy().astype(np.float64) ** 2).mean(0)
+            p_elec += float(tv["p_elec"].mean())
+            usage += torch.bincount(env.active_gait().cpu(), minlength=env.num_gaits).float()
+            count += 1
+    if count == 0:
+        raise UsageError(f"--seconds must exceed the {SETTLE_S:g} s of settling")
+    q, tau_sq = q / count, tau_sq / count
+    names = env.gait_selector.gait_names
+    return {
+        "height": height / count,
+        "p_elec": p_elec / count,
+        "kinds": {
+            k: {
+                "mean_angle": float(q[s].mean()),
+                "torque_rms": float(np.sqrt(tau_sq[s].mean())),
+                "copper_w": float((coeff[s] * tau_sq[s]).sum()),
+            }
+            for k, s in KINDS.items()
+        },
+        "hip_angles": [float(x) for x in q[KINDS["hip"]]],
+        "gait_usage": {g: float(usage[i] / usage.sum()) for i, g in enumerate(names)},
+    }
+
+
+@entry_point
+def main(argv: list[str] | None = None) -> int:
+    ap = doc_parser(__doc__)
+    ap.add_argument("--checkpoint", required=True, help="model_<it>.pt of a predictive task (ours, no_wheel_vel)")
+    ap.add_argument("--robots", type=int, default=8, help="robots (default 8)")
+    ap.add_argument("--seconds", type=float, default=6.0, help="rollout length [s], the first 2 s settle (default 6)")
+    add_result_options(ap, plot=None)
+    args = ap.parse_args(argv)
+    if args.robots < 1 or args.seconds <= SETTLE_S:
+        raise UsageError(f"need --robots >= 1 and --seconds > {SETTLE_S:g}")
+    ap.check_outputs(args.json)
+    from wqwarp.eval.loading import make_policy_runner
+
+    runner = make_policy_runner(args.checkpoint, None, num_envs=args.robots)
+    if runner.env.gait_selector.name != "predictive":
+        raise UsageError(f"{args.checkpoint}: needs a predictive preset (ours, no_wheel_vel), not {runner.preset}")
+    out = {}
+    for label, zero in (("policy", False), ("nominal_driving", True)):
+        r = out[label] = measure(runner, zero, args.seconds)
+        kinds = ", ".join(
+            f"{k} {v['mean_angle']:+.2f} rad {v['torque_rms']:.2f} N m {v['copper_w']:.1f} W"
+            for k, v in r["kinds"].items()
+        )
+        hips = " ".join(f"{a:+.2f}" for a in r["hip_angles"])
+        print(f"{label:>15}: height {r['height']:.3f} m | p_elec {r['p_elec']:.1f} W | {kinds} | hips {hips}")
+    if args.json:
+        from wqwarp.utils.provenance import write_result_json
+
+        write_result_json(
+            args.json,
+            {"checkpoint": args.checkpoint, "robots": args.robots, "seconds": args.seconds, **out},
+            command=" ".join(["tools/studies/standing_posture.py", *(argv or sys.argv[1:])]),
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
