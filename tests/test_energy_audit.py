@@ -160,3 +160,27 @@ def test_authors_model_comparison_refuses_a_missing_model(tmp_path):
         [sys.executable, tool, "--mjcf", str(tmp_path / "nope.xml"), "--json", str(out)], capture_output=True, text=True
     )
     assert r.returncode == 2 and "no such MJCF" in r.stderr and not out.exists()
+
+
+def test_the_standing_posture_tool_reads_height_angles_and_copper_of_a_checkpoint(tmp_path, save_checkpoint):
+    """tools/studies/standing_posture.py on an untrained ours checkpoint: the nominal driving gait alone stands at the
+    default height with the knees carrying the trunk, each kind's copper is its coefficient times the torques'
+    squares, and the JSON holds both rows."""
+    sys.path.insert(0, os.path.join(ROOT, "tools", "studies"))
+    import standing_posture
+
+    from wqwarp.rl.presets import make_preset
+
+    cfg = make_preset("ours")
+    cfg.sim.num_envs = 2
+    ckpt = save_checkpoint(str(tmp_path / "model_0.pt"), cfg)
+    out = tmp_path / "posture.json"
+    assert standing_posture.main(["--checkpoint", ckpt, "--robots", "2", "--seconds", "2.6", "--json", str(out)]) == 0
+    d = json.loads(out.read_text())
+    nominal = d["nominal_driving"]
+    assert 0.25 < nominal["height"] < 0.29 and nominal["gait_usage"]["driving"] > 0.99
+    knee = nominal["kinds"]["knee"]
+    assert knee["copper_w"] == pytest.approx(4 * 0.5134 * knee["torque_rms"] ** 2, rel=1e-3)
+    assert knee["copper_w"] > nominal["kinds"]["hip"]["copper_w"] and nominal["p_elec"] > knee["copper_w"]
+    assert set(d["policy"]["kinds"]) == {"hip", "thigh", "knee"} and len(d["policy"]["hip_angles"]) == 4
+    assert standing_posture.main(["--checkpoint", ckpt, "--seconds", "1"]) == 2
