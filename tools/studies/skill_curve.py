@@ -19,7 +19,6 @@ whether every later evaluated checkpoint keeps it.
 from __future__ import annotations
 
 import glob
-import json
 import os
 import re
 import sys
@@ -35,17 +34,12 @@ AXES = ("vx", "vy", "wz")
 
 def wall_seconds(run: str) -> dict[int, float]:
     """Iteration -> the run's summed ``wall_s`` up to and including it (last row of each iteration wins)."""
-    path = os.path.join(run, "metrics.jsonl")
-    if not os.path.isfile(path):
-        raise UsageError(f"{run}: no metrics.jsonl (not a train/ppo_newton.py run directory)")
-    per_it: dict[int, float] = {}
-    with open(path, encoding="utf-8") as f:
-        for line in f:
-            try:
-                r = json.loads(line)
-            except json.JSONDecodeError:
-                continue  # a line cut by a crash
-            per_it[int(r["iteration"])] = float(r["wall_s"])
+    from wqwarp.rl.progress import read_metrics
+
+    rows = read_metrics(run)
+    if not rows:
+        raise UsageError(f"{run}: no metrics.jsonl rows (not a train/ppo_newton.py run directory)")
+    per_it = {int(r["iteration"]): float(r["wall_s"]) for r in rows}
     out, acc = {}, 0.0
     for it in sorted(per_it):
         acc += per_it[it]

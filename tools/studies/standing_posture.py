@@ -16,8 +16,10 @@ from __future__ import annotations
 import sys
 
 from wqwarp.cli.args import UsageError, add_result_options, doc_parser, entry_point
+from wqwarp.robot.constants import JOINT_KIND_INDICES
 
-KINDS = {"hip": slice(0, 12, 3), "thigh": slice(1, 12, 3), "knee": slice(2, 12, 3)}
+KINDS = {k: list(v) for k, v in JOINT_KIND_INDICES.items() if k != "wheel"}
+"""The leg joints of each kind (indices into the 16 actuated joints)."""
 SETTLE_S = 2.0
 """Seconds before the measurement starts."""
 

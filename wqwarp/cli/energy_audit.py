@@ -232,14 +232,15 @@ def copper_by_kind(model, tau_sq) -> dict:
     copper loss it costs [W] under ``model`` (``wqwarp.robot.motors.MotorModel``), from the window mean of each
     joint's squared torque ``tau_sq`` (16,) sampled at the last substep of each policy step: the term-by-term
     reading of ``p_copper_legs`` / ``p_copper_wheels``, which average every substep."""
-    kinds = {"hip": range(0, 12, 3), "thigh": range(1, 12, 3), "knee": range(2, 12, 3), "wheel": range(12, 16)}
+    from wqwarp.robot.constants import JOINT_KIND_INDICES
+
     coeff = model.per_joint()["copper"]
     return {
         k: {
             "torque_rms": float(np.sqrt(np.mean([tau_sq[j] for j in js]))),
             "copper_w": float(sum(coeff[j] * tau_sq[j] for j in js)),
         }
-        for k, js in kinds.items()
+        for k, js in JOINT_KIND_INDICES.items()
     }
 
 

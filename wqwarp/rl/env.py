@@ -86,6 +86,9 @@ class WheeledGo1Env(VecEnv):
 
         # Zero-copy torch views of the simulator.
         self.tv = sim.torch_views()
+        self.power_measured = self.tv[POWER_OUTPUT[cfg.power_measure]]
+        """(N,) view of the simulator's power output that ``cfg.power_measure`` names: the predictor's labels and the
+        reward's power term read it [W]."""
         self.actions_wp = wp.zeros((n, self.num_actions), dtype=wp.float32, device=sim.device)
         self.actions = wp.to_torch(self.actions_wp)
         self.prev_actions = torch.zeros_like(self.actions)
@@ -274,9 +277,7 @@ class WheeledGo1Env(VecEnv):
         time_out = (self.episode_length_buf >= self.max_episode_length) & ~unstable
         dones = died | time_out
         error = tracking_error(self.commands, self.tv["base_lin_vel"], self.tv["base_ang_vel"])
-        self.gait_selector.record_step(
-            self.tv[POWER_OUTPUT[self.cfg.power_measure]], error, self.active_gait(), self.commands, dones, fell
-        )
+        self.gait_selector.record_step(self.power_measured, error, self.active_gait(), self.commands, dones, fell)
         self.prev2_actions[:] = self.prev_actions
         self.prev_actions[:] = self.actions
         # Metrics see the state before resets; the observations below re-read it after resets and pushes.

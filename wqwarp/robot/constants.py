@@ -40,6 +40,13 @@ ACTUATED_JOINT_NAMES: tuple[str, ...] = LEG_JOINT_NAMES + WHEEL_JOINT_NAMES
 
 WHEEL_INDICES: tuple[int, ...] = (12, 13, 14, 15)
 """Indices of the wheel joints inside the 16 actuated joints."""
+JOINT_KIND_INDICES: dict[str, tuple[int, ...]] = {
+    "hip": tuple(range(0, NUM_LEG_JOINTS, JOINTS_PER_LEG)),
+    "thigh": tuple(range(1, NUM_LEG_JOINTS, JOINTS_PER_LEG)),
+    "knee": tuple(range(2, NUM_LEG_JOINTS, JOINTS_PER_LEG)),  # the calf joint
+    "wheel": WHEEL_INDICES,
+}
+"""Indices, inside the 16 actuated joints, of each kind of joint over the four legs."""
 
 # Sign of each leg's side: +1 for a left leg (y > 0), -1 for a right leg; +1 for front (x > 0), -1 for rear.
 LEG_SIDE_SIGN: tuple[float, ...] = (-1.0, 1.0, -1.0, 1.0)
