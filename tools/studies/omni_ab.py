@@ -193,10 +193,20 @@ def plot_curves(runs: list[str], labels: list[str], out: str, upto: int | None =
     plt.close(fig)
 
 
+ARCHIVE_DIGITS = 4
+"""Significant digits of the archived training metrics: they are means over noisy rollouts, and full float precision
+made the committed archives 2.5x larger gzipped."""
+
+
+def compact_row(row: dict, digits: int = ARCHIVE_DIGITS) -> dict:
+    """``row`` with every float rounded to ``digits`` significant digits (integers and strings as they are)."""
+    return {k: float(f"{v:.{digits}g}") if isinstance(v, float) else v for k, v in row.items()}
+
+
 def archive(run: str, dest: str, every: int = 10) -> None:
     """The committed record of a run: its configuration, its evaluation results (``eval*.json``, ``lateral*.json``,
-    ``energymap*.json``) and every ``every``-th row of ``metrics.jsonl`` (and the last), gzipped
-    (``metrics_every<every>.jsonl.gz``)."""
+    ``energymap*.json``) and every ``every``-th row of ``metrics.jsonl`` (and the last), floats to
+    :data:`ARCHIVE_DIGITS` significant digits, gzipped (``metrics_every<every>.jsonl.gz``)."""
     import shutil
 
     from wqwarp.rl.progress import read_metrics
@@ -208,7 +218,7 @@ def archive(run: str, dest: str, every: int = 10) -> None:
             shutil.copyfile(os.path.join(run, name), os.path.join(dest, name))
     rows = read_metrics(run)
     keep = [r for i, r in enumerate(rows) if (i + 1) % every == 0 or i + 1 == len(rows)]
-    text = "".join(json.dumps(r) + "\n" for r in keep)
+    text = "".join(json.dumps(compact_row(r)) + "\n" for r in keep)
     write_text_gz_atomic(os.path.join(dest, f"metrics_every{every}.jsonl.gz"), text)
 
 
