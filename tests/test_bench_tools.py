@@ -165,3 +165,33 @@ def test_headline_checks_read_records_of_any_runs_as_the_reproduction_page_does(
     for bad in (["--tracking", "walker=x.json"], ["--tracking", f"ours={tmp_path / 'missing.json'}"], []):
         assert tool.main(bad) == 2
         assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_power_ratio_compares_two_policies_under_both_measures_and_rescales_the_leg_copper(tmp_path, capsys):
+    """tools/studies/power_ratio.py: a policy at 150 W of p_elec (140 W of it leg copper) against one at 100 W (90 W)
+    is 1.50x; at the leg motor constant 0.22 instead of the model's 0.147 the copper is (0.147 / 0.22)^2 = 0.446x:
+    (10 + 62.5) / (10 + 40.2) = 1.44x. p_cost 20 against 40 W is 0.50x. A record without p_elec is refused with one
+    line and exit 2."""
+    import importlib
+
+    tool = importlib.import_module("tools.studies.power_ratio")
+
+    def record(path, p_cost, p_elec, copper, elec=True):
+        row = {"task": "vx", "mse": 0.001, "mean_p_cost": p_cost}
+        if elec:
+            row |= {"mean_p_elec": p_elec, "mean_p_copper_legs": copper}
+        path.write_text(json.dumps({"results": [row]}))
+        return str(path)
+
+    a = record(tmp_path / "a.json", 20.0, 150.0, 140.0)
+    b = record(tmp_path / "b.json", 40.0, 100.0, 90.0)
+    out = tmp_path / "r.json"
+    assert tool.main(["--a", f"ours={a}", "--b", f"trot={b}", "--leg-km", "0.147,0.22", "--json", str(out)]) == 0
+    r = json.loads(out.read_text())["tasks"]["vx"]
+    assert r["ratio_p_cost"] == pytest.approx(0.5) and r["ratio_p_elec"] == pytest.approx(1.5)
+    s = (0.147 / 0.22) ** 2
+    assert r["ratio_p_elec_at_km"] == pytest.approx([1.5, (10 + 140 * s) / (10 + 90 * s)])
+    capsys.readouterr()
+    old = record(tmp_path / "old.json", 20.0, 0.0, 0.0, elec=False)
+    assert tool.main(["--a", f"ours={old}", "--b", f"trot={b}"]) == 2
+    assert "no tracking results with mean_p_elec" in capsys.readouterr().err
