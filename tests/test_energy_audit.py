@@ -184,3 +184,13 @@ def test_the_standing_posture_tool_reads_height_angles_and_copper_of_a_checkpoin
     assert knee["copper_w"] > nominal["kinds"]["hip"]["copper_w"] and nominal["p_elec"] > knee["copper_w"]
     assert set(d["policy"]["kinds"]) == {"hip", "thigh", "knee"} and len(d["policy"]["hip_angles"]) == 4
     assert standing_posture.main(["--checkpoint", ckpt, "--seconds", "1"]) == 2
+    fixed = make_preset("no_predictor")  # a fixed gait: its own nominal gait, trotting in place, with lifted feet
+    fixed.sim.num_envs = 2
+    ckpt = save_checkpoint(str(tmp_path / "trot_model_0.pt"), fixed)
+    assert standing_posture.main(["--checkpoint", ckpt, "--robots", "2", "--seconds", "2.6", "--json", str(out)]) == 0
+    trot = json.loads(out.read_text())["nominal_trotting"]
+    assert trot["gait_usage"]["trotting"] > 0.99 and trot["p_elec"] > nominal["p_elec"]
+    baseline = make_preset("baseline")
+    baseline.sim.num_envs = 2
+    ckpt = save_checkpoint(str(tmp_path / "base_model_0.pt"), baseline)
+    assert standing_posture.main(["--checkpoint", ckpt, "--seconds", "2.6"]) == 2

@@ -1,6 +1,7 @@
 """How a policy stands, and what its posture costs the battery: a checkpoint's robots held at the zero command, the
 trunk height, each leg joint kind's mean angle and RMS torque, and the copper loss that torque costs under the motor
-model (``wqwarp.robot.motors``), beside the nominal driving gait alone (every action 0) on the same robots.
+model (``wqwarp.robot.motors``), beside the nominal gait alone (every action 0) on the same robots: driving for a
+predictive preset (ours, no_wheel_vel), the preset's own gait for a fixed one (no_predictor: trotting in place).
 
 Usage::
 
@@ -8,7 +9,8 @@ Usage::
         [--seconds 6] [--json PATH]
 
 Measured over the last ``--seconds`` minus 2 s (the first 2 s settle); nothing learns. The gait is the one the
-checkpoint's selection picks for the policy (its share is reported) and driving, forced, for the nominal gait.
+checkpoint's selection picks for the policy (its share is reported) and, for the nominal gait, driving forced (a
+predictive preset) or the preset's fixed gait. A preset without a nominal gait (baseline, pmtg) is refused.
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ def measure(runner, zero_residual: bool, seconds: float) -> dict:
     n = env.num_envs
     coeff = np.asarray(env.sim.motor_model.per_joint()["copper"])
     with evaluation_session(env), torch.no_grad():
-        if zero_residual:
+        if zero_residual and env.gait_selector.name == "predictive":
             env.gait_selector.force(torch.zeros(n, dtype=torch.long, device=env.device))  # gait 0: driving
         obs = start_rollout(env, torch.zeros(n, 3, device=env.device), seconds)
         height, q, tau_sq, p_elec, usage, count = 0.0, np.zeros(16), np.zeros(16), 0.0, torch.zeros(env.num_gaits), 0
@@ -75,7 +77,11 @@ def measure(runner, zero_residual: bool, seconds: float) -> dict:
 @entry_point
 def main(argv: list[str] | None = None) -> int:
     ap = doc_parser(__doc__)
-    ap.add_argument("--checkpoint", required=True, help="model_<it>.pt of a predictive task (ours, no_wheel_vel)")
+    ap.add_argument(
+        "--checkpoint",
+        required=True,
+        help="model_<it>.pt of a task with a nominal gait (ours, no_wheel_vel, no_predictor)",
+    )
     ap.add_argument("--robots", type=int, default=8, help="robots (default 8)")
     ap.add_argument("--seconds", type=float, default=6.0, help="rollout length [s], the first 2 s settle (default 6)")
     add_result_options(ap, plot=None)
@@ -86,10 +92,17 @@ def main(argv: list[str] | None = None) -> int:
     from wqwarp.eval.loading import make_policy_runner
 
     runner = make_policy_runner(args.checkpoint, None, num_envs=args.robots)
-    if runner.env.gait_selector.name != "predictive":
-        raise UsageError(f"{args.checkpoint}: needs a predictive preset (ours, no_wheel_vel), not {runner.preset}")
+    env = runner.env
+    if not env.residual_mode:
+        raise UsageError(
+            f"{args.checkpoint}: needs a preset with a nominal gait (ours, no_predictor), not {runner.preset}"
+        )
+    if env.gait_selector.name == "predictive":
+        nominal = "nominal_driving"
+    else:  # a fixed gait: the one every robot runs
+        nominal = f"nominal_{env.gait_selector.gait_names[int(env.active_gait()[0])]}"
     out = {}
-    for label, zero in (("policy", False), ("nominal_driving", True)):
+    for label, zero in (("policy", False), (nominal, True)):
         r = out[label] = measure(runner, zero, args.seconds)
         kinds = ", ".join(
             f"{k} {v['mean_angle']:+.2f} rad {v['torque_rms']:.2f} N m {v['copper_w']:.1f} W"
