@@ -350,3 +350,18 @@ def test_the_electrical_power_measure_feeds_the_predictor_labels_and_the_power_r
     for y in labels:
         assert torch.isclose(windows_e, y, rtol=1e-4).any(), float(y)
         assert not torch.isclose(windows_c, y, rtol=1e-2).any(), float(y)
+
+
+def test_the_reward_can_read_the_other_power_measure_than_the_selection():
+    """``reward.power_measure: electrical`` under the mechanical selection: the power term reads p_elec while the
+    predictor's labels stay p_cost (the config names both)."""
+    reward = make_preset("ours").reward
+    reward.power_measure = "electrical"
+    env = _env("ours", reward=reward)
+    assert env.cfg.reward_power_output == "p_elec" and env.cfg.power_measure == "mechanical"
+    weights, k = wp.to_torch(env.reward_weights), REWARD_TERMS.index("p_cost")
+    weights[k] = -0.02
+    env.step(torch.zeros(N, env.num_actions))
+    terms = wp.to_torch(env.reward_terms_wp)[:, k]
+    torch.testing.assert_close(terms, -0.02 * env.tv["p_elec"] * env.dt, rtol=1e-4, atol=1e-7)
+    assert env.power_measured.data_ptr() == env.tv["p_cost"].data_ptr()  # the labels' source

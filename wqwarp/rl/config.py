@@ -25,6 +25,9 @@ from wqwarp.utils.migration import fill_missing, migrate, since_default
 PowerMeasure = Literal["mechanical", "electrical"]
 """The power the energy-aware selection and the power reward read (:attr:`EnvConfig.power_measure`)."""
 POWER_OUTPUT = {"mechanical": "p_cost", "electrical": "p_elec"}
+RewardPowerMeasure = Literal["same", "mechanical", "electrical"]
+"""What the reward's power term reads (:attr:`RewardConfig.power_measure`): ``same`` follows
+:attr:`EnvConfig.power_measure`."""
 """The simulator's output each measure reads (``wqwarp.kernels.power``)."""
 
 GaitSelection = Literal["none", "fixed", "predictive"]
@@ -98,6 +101,12 @@ class RewardConfig(RewardWeights):
     is saved in the checkpoint. 0: the ramp starts at ramp_start. Under torchrun each rank gates on its own robots."""
     ramp_gate_window: int = field(default=100, metadata=since_default("its default (unused without the gate)"))
     """PPO iterations averaged by the ramp_gate_vy_error gate."""
+    power_measure: RewardPowerMeasure = field(
+        default="same", metadata=migrate("same", "the power term read env.power_measure before the setting existed")
+    )
+    """What the power term (``p_cost``) reads, apart from the selection (beyond the paper): ``same`` (default) the
+    env's ``power_measure``, else ``mechanical`` (p_cost) or ``electrical`` (p_elec), e.g. gaits ranked by the
+    paper's measure while the residual pays for its posture by the battery's."""
 
     def weights(self, terms: tuple[RewardTerm, ...] = TERMS) -> list[float]:
         """w_k of each of ``terms`` in order: the field of that name, or the term's default weight for a term defined
@@ -541,7 +550,15 @@ class EnvConfig(CheckedConfig):
     """What the energy-aware parts read (beyond the paper): ``mechanical`` (default, the paper's p_cost = sum |tau|
     |qd|) or ``electrical`` (``p_elec``, what the battery pays under the motor model of ``wqwarp.robot.motors``).
     It sets the power predictor's labels, so the selection ranks the gaits by that measure, and the reward's power
-    term (``reward.p_cost``, weight 0 in every task). Both measures are reported whatever is chosen."""
+    term (``reward.p_cost``, weight 0 in every task) unless ``reward.power_measure`` names another. Both measures
+    are reported whatever is chosen."""
+
+    @property
+    def reward_power_output(self) -> str:
+        """The simulator output the reward's power term reads (``p_cost`` or ``p_elec``)."""
+        measure = self.power_measure if self.reward.power_measure == "same" else self.reward.power_measure
+        return POWER_OUTPUT[measure]
+
     seed: int = 1
     """Seed of the env's random streams (spawn yaws, commands, pushes, sampled gaits); offset by the rank under
     torchrun."""

@@ -388,7 +388,7 @@ class WheeledGo1Env(VecEnv):
         inp.action, inp.prev_action, inp.prev2_action = self.actions_wp, self.prev_actions_wp, self.prev2_actions_wp
         inp.actuated_qd, inp.prev_actuated_qd = sim.actuated_qd, self.prev_qd_wp
         inp.torque_sq, inp.power_sq, inp.body_collision = sim.torque_sq, sim.power_sq, sim.body_collision
-        inp.p_cost, inp.actuated_q = getattr(sim, POWER_OUTPUT[self.cfg.power_measure]), sim.actuated_q
+        inp.p_cost, inp.actuated_q = getattr(sim, self.cfg.reward_power_output), sim.actuated_q
         inp.joint_soft_low, inp.joint_soft_high = self.joint_soft_limits_wp
         inp.sigma, inp.dt = self.cfg.reward.tracking_sigma, self.dt
         return inp
