@@ -25,10 +25,10 @@ from wqwarp.utils.migration import fill_missing, migrate, since_default
 PowerMeasure = Literal["mechanical", "electrical"]
 """The power the energy-aware selection and the power reward read (:attr:`EnvConfig.power_measure`)."""
 POWER_OUTPUT = {"mechanical": "p_cost", "electrical": "p_elec"}
+"""The simulator's output each measure reads (``wqwarp.kernels.power``)."""
 RewardPowerMeasure = Literal["same", "mechanical", "electrical"]
 """What the reward's power term reads (:attr:`RewardConfig.power_measure`): ``same`` follows
 :attr:`EnvConfig.power_measure`."""
-"""The simulator's output each measure reads (``wqwarp.kernels.power``)."""
 
 GaitSelection = Literal["none", "fixed", "predictive"]
 """How each robot's nominal gait is chosen (:attr:`GaitConfig.selection`)."""
@@ -553,15 +553,15 @@ class EnvConfig(CheckedConfig):
     term (``reward.p_cost``, weight 0 in every task) unless ``reward.power_measure`` names another. Both measures
     are reported whatever is chosen."""
 
+    seed: int = 1
+    """Seed of the env's random streams (spawn yaws, commands, pushes, sampled gaits); offset by the rank under
+    torchrun."""
+
     @property
     def reward_power_output(self) -> str:
         """The simulator output the reward's power term reads (``p_cost`` or ``p_elec``)."""
         measure = self.power_measure if self.reward.power_measure == "same" else self.reward.power_measure
         return POWER_OUTPUT[measure]
-
-    seed: int = 1
-    """Seed of the env's random streams (spawn yaws, commands, pushes, sampled gaits); offset by the rank under
-    torchrun."""
 
     def check(self) -> None:
         check_positive(self, "episode_length_s")

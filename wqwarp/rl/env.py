@@ -87,8 +87,9 @@ class WheeledGo1Env(VecEnv):
         # Zero-copy torch views of the simulator.
         self.tv = sim.torch_views()
         self.power_measured = self.tv[POWER_OUTPUT[cfg.power_measure]]
-        """(N,) view of the simulator's power output that ``cfg.power_measure`` names: the predictor's labels and the
-        reward's power term read it [W]."""
+        """(N,) view of the simulator's power output that ``cfg.power_measure`` names: the predictor's labels read it
+        [W] (the reward's power term reads ``cfg.reward_power_output``, the same unless ``reward.power_measure``
+        names another)."""
         self.actions_wp = wp.zeros((n, self.num_actions), dtype=wp.float32, device=sim.device)
         self.actions = wp.to_torch(self.actions_wp)
         self.prev_actions = torch.zeros_like(self.actions)
