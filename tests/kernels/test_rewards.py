@@ -101,6 +101,7 @@ def test_registry_derives_the_config_fields_and_every_term_has_a_formula_and_a_r
         "ramp_iterations",
         "ramp_gate_vy_error",
         "ramp_gate_window",
+        "power_measure",
     ]
     for t in TERMS:
         assert fields[t.name].default == t.weight and fields[t.name].metadata["doc"] == t.doc
