@@ -183,7 +183,16 @@ def test_the_standing_posture_tool_reads_height_angles_and_copper_of_a_checkpoin
     assert knee["copper_w"] == pytest.approx(4 * 0.5134 * knee["torque_rms"] ** 2, rel=1e-3)
     assert knee["copper_w"] > nominal["kinds"]["hip"]["copper_w"] and nominal["p_elec"] > knee["copper_w"]
     assert set(d["policy"]["kinds"]) == {"hip", "thigh", "knee"} and len(d["policy"]["hip_angles"]) == 4
+    assert d["command"] == [0.0, 0.0, 0.0] and nominal["p_cost"] < 1.0 and nominal["wheels"]["copper_w"] < 1.0
     assert standing_posture.main(["--checkpoint", ckpt, "--seconds", "1"]) == 2
+    assert standing_posture.main(["--checkpoint", ckpt, "--command", "0.5,0"]) == 2
+    # held at 0.5 m/s forward: the wheels accelerate and roll the robot, torque the standing robot does not need
+    drive = ["--checkpoint", ckpt, "--robots", "2", "--seconds", "2.6", "--command", "0.5,0,0", "--json", str(out)]
+    assert standing_posture.main(drive) == 0
+    moving = json.loads(out.read_text())
+    assert moving["command"] == [0.5, 0.0, 0.0]
+    assert moving["nominal_driving"]["wheels"]["torque_rms"] > nominal["wheels"]["torque_rms"]
+    assert moving["nominal_driving"]["p_cost"] > nominal["p_cost"]
     fixed = make_preset("no_predictor")  # a fixed gait: its own nominal gait, trotting in place, with lifted feet
     fixed.sim.num_envs = 2
     ckpt = save_checkpoint(str(tmp_path / "trot_model_0.pt"), fixed)

@@ -152,3 +152,16 @@ def parse_floats(text: str) -> list[float]:
     if not values or not all(math.isfinite(v) for v in values):
         raise ValueError(f"expected comma-separated numbers like 0.3,0.2, got {text!r}")
     return values
+
+
+def parse_command(text: str, option: str = "--command") -> tuple[float, float, float]:
+    """``"0.5,0,0.3"`` -> (0.5, 0.0, 0.3), a body command v_x, v_y, w; UsageError naming ``option`` unless three
+    finite numbers."""
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise UsageError(f"{option} {text!r}: expected three numbers vx,vy,wz (e.g. 0.5,0,0.3)")
+    return values  # type: ignore[return-value]

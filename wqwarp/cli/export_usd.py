@@ -35,7 +35,7 @@ import time
 
 import numpy as np
 
-from wqwarp.cli.args import ArgumentParser, UsageError, entry_point
+from wqwarp.cli.args import ArgumentParser, UsageError, entry_point, parse_command
 from wqwarp.control.gaits import GAIT_NAMES
 from wqwarp.viz.usd import USD_EXTENSIONS, RolloutRecorder, check_output_path
 
@@ -55,17 +55,6 @@ class CommandSchedule:
         """Command in force at time ``t`` [s]: that of the last entry with time <= t (zero before the first)."""
         k = int(np.searchsorted(self.times, t + 1e-9, side="right")) - 1
         return self.commands[k] if k >= 0 else np.zeros(3, np.float32)
-
-
-def parse_command(text: str) -> tuple[float, float, float]:
-    parts = [p.strip() for p in text.split(",")]
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise UsageError(f"--command {text!r}: expected three numbers vx,vy,wz (e.g. 0.5,0,0.3)")
-    return values  # type: ignore[return-value]
 
 
 def parse_command_script(path: str) -> CommandSchedule:
