@@ -15,7 +15,7 @@ from wqwarp.cli.args import UsageError
 from wqwarp.cli.train_args import ALIASES, parse_train_args, resolved_config
 from wqwarp.rl.config import EnvConfig, GaitConfig, PredictorConfig, TrainConfig, env_config_from_dict, to_dict
 from wqwarp.rl.presets import PAPER_NAMES, PRESET_ORDER, PRESETS, infer_preset, make_preset, preset_differences
-from wqwarp.rl.tasks import DEFAULT_TASK, RECIPE_LEVERS, TASKS, get_path, infer_task
+from wqwarp.rl.tasks import BATTERY_LEVERS, DEFAULT_TASK, RECIPE_LEVERS, TASKS, get_path, infer_task
 from wqwarp.sim.config import BACKENDS, SimConfig
 
 PHYSICS = {"newton", "mujoco", "warp", "torch"}
@@ -241,7 +241,7 @@ def test_registry_names_each_preset_once():
 
 def test_the_tasks_are_each_method_with_its_levers_and_as_the_paper_writes_it():
     assert list(TASKS)[:2] == ["ours", "ours-paper"] and DEFAULT_TASK == "ours"
-    assert set(TASKS) == {n for m in PRESETS for n in (m, f"{m}-paper")}
+    assert set(TASKS) == {n for m in PRESETS for n in (m, f"{m}-paper", f"{m}-battery")}
     for name, task in TASKS.items():
         env, train = task.make()
         assert infer_task(env, train) == name and infer_preset(env) == task.method
@@ -263,7 +263,16 @@ def test_the_tasks_are_each_method_with_its_levers_and_as_the_paper_writes_it():
     ref.sim.wheel_ki = 0.0
     assert to_dict(base) == to_dict(ref) and base_train.init_noise_std_groups == ()
     assert _parse("--env.gait.lateral-gain", "0.2").env.gait.lateral_gain == 0.2  # an option wins over the task
-    for lever in RECIPE_LEVERS:  # each lever is a config field, measured in a study that exists
+    battery, _ = TASKS["no_predictor-battery"].make()  # the recipe and the battery's power term, every method
+    assert battery.gait.lateral_gain == 0.35 and battery.reward.power_measure == "electrical"
+    assert battery.power_measure == "mechanical" and battery.reward_power_output == "p_elec"
+    assert (battery.reward.p_cost, battery.reward.joint_limits, battery.reward.ramp_terms) == (
+        -0.002,
+        -10.0,
+        ("p_cost",),
+    )
+    assert infer_task(battery) == "no_predictor-battery" and infer_task(no_pred) == "no_predictor"
+    for lever in RECIPE_LEVERS + BATTERY_LEVERS:  # each lever is a config field, measured in a study that exists
         get_path({"env": env, "train": train}, lever.path)
         assert os.path.isfile(os.path.join(ROOT, "docs", "studies", lever.study, "README.md")), lever.study
 

@@ -6,6 +6,9 @@ with, and the PPO budget, so that one id is the whole recipe:
                     ``python train/ppo_newton.py``): the paper's method with the :data:`RECIPE_LEVERS` that apply to
                     it, 128 robots x 3000 iterations x 24 steps = 9.2 M samples
     <method>-paper  the method as the paper writes it (no lever), at the same budget
+    <method>-battery  the recipe with the :data:`BATTERY_LEVERS` beside it: a power term by what the battery pays
+                    (the motors' electrical power, ``wqwarp.robot.motors``), ramped in once the lateral skill is
+                    there, and legged_gym's soft joint-limit term (beyond the paper; issue 48)
 
 The methods are ``ours``, ``no_predictor``, ``no_wheel_vel``, ``pmtg`` and ``baseline``. Every lever has the study
 that measured it; a lever that a method cannot use (the gait's lateral feed-forward for the baseline without a
@@ -133,6 +136,48 @@ seeds, and where five seeds of it hold the target (docs/studies/skill_levers, "t
 until 2026-12-07. The paper: 4096 robots x 4000 iterations (``--num-envs 4096 --max-iterations 4000`` on a GPU)."""
 
 
+BATTERY_LEVERS: tuple[Lever, ...] = (
+    Lever(
+        "env.reward.power_measure",
+        "electrical",
+        _every,
+        "the power term reads p_elec (the held posture's copper included), the gaits still ranked by p_cost as in "
+        "the paper: the three moving tasks 0.55x / 0.71x the recipe's p_elec, v_y MSE 0.032 / 0.019 (seeds 5 / 6)",
+        "electrical",
+    ),
+    Lever(
+        "env.reward.p_cost",
+        -0.002,
+        _every,
+        "-0.002 / W of p_elec, the scale of the residual_energy study's -0.01 / W of p_cost (not tuned); standing "
+        "and v_x 1.2-1.6x the nominal gait's p_elec (issue 48's 1.2x not met)",
+        "electrical",
+    ),
+    Lever("env.reward.ramp_terms", ("p_cost",), _every, "the power term ramps in after the skill", "electrical"),
+    Lever("env.reward.ramp_start", 1000, _every, "no power term before iteration 1000", "electrical"),
+    Lever("env.reward.ramp_iterations", 500, _every, "full weight 500 iterations after the gate opens", "electrical"),
+    Lever(
+        "env.reward.ramp_gate_vy_error",
+        0.15,
+        _every,
+        "the ramp waits for a mean |v_y error| < 0.15 m/s (opened at iteration 1001-1332 on seeds 5 / 6)",
+        "electrical",
+    ),
+    Lever(
+        "env.reward.joint_limits",
+        -10.0,
+        _every,
+        "legged_gym's soft joint-limit term: without it seed 6 stood on its hip stops (trunk 0.152 m) and lost v_y "
+        "(MSE 0.078); with it 0.031, off the stops",
+        "electrical",
+    ),
+)
+"""The settings of the ``<method>-battery`` tasks beside :data:`RECIPE_LEVERS` (docs/studies/electrical, the arm
+``mre_jl10``): the reward's power term by the battery's measure. Every method can use them, so that methods compare
+at equal recipes. Measured on ``ours``, seeds 5 and 6, at 9.2 M; not the default: it pays less battery power on the
+moving tasks, not on standing and v_x, and its selection can lock into trotting at rest."""
+
+
 def set_path(roots: dict[str, object], path: str, value: object) -> None:
     """Set the field at dotted ``path`` of the tree its first part names (``roots["env"]`` for ``env.sim.dt``)."""
     head, *mid, leaf = path.split(".")
@@ -186,6 +231,12 @@ def _tasks() -> dict[str, Task]:
     for name, preset in PRESETS.items():
         tasks[name] = Task(name, name, f"{preset.summary}, with the measured levers (recommended)", RECIPE_LEVERS)
         tasks[f"{name}-paper"] = Task(f"{name}-paper", name, f"{preset.summary}, as the paper writes it")
+        tasks[f"{name}-battery"] = Task(
+            f"{name}-battery",
+            name,
+            f"{preset.summary}, with the levers and the battery's power term",
+            RECIPE_LEVERS + BATTERY_LEVERS,
+        )
     return tasks
 
 
@@ -202,13 +253,14 @@ def task_help() -> str:
 
 
 def recipe_differences(env: EnvConfig, train: TrainConfig | None, task: str) -> list[str]:
-    """``"<lever path> <value> (the task's <value>)"`` for each lever field of the recipes (every ``RECIPE_LEVERS``
-    path; the ``env.`` ones only without ``train``) where the configuration differs from ``task``'s."""
+    """``"<lever path> <value> (the task's <value>)"`` for each lever field of the recipes (every
+    :data:`RECIPE_LEVERS` and :data:`BATTERY_LEVERS` path; the ``env.`` ones only without ``train``) where the
+    configuration differs from ``task``'s."""
     roots = {"env": env, "train": train if train is not None else TrainConfig()}
     ref_env, ref_train = TASKS[task].make()
     ref = {"env": ref_env, "train": ref_train}
     out = []
-    for lever in RECIPE_LEVERS:
+    for lever in RECIPE_LEVERS + BATTERY_LEVERS:
         if train is None and not lever.path.startswith("env."):
             continue
         have, want = get_path(roots, lever.path), get_path(ref, lever.path)
@@ -225,7 +277,7 @@ def infer_task(env: EnvConfig, train: TrainConfig | None = None) -> str | None:
     method = infer_preset(env)
     if method is None:
         return None
-    for name in (method, f"{method}-paper"):
+    for name in (method, f"{method}-paper", f"{method}-battery"):
         if not recipe_differences(env, train, name):
             return name
     return None
