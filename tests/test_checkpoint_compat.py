@@ -89,6 +89,7 @@ OLD_MIGRATIONS = (
     ("reward.p_cost", 0.0, "no power-cost term before the setting existed"),
     ("power_measure", "mechanical", "the paper's p_cost, the only measure before the setting"),
     ("reward.power_measure", "same", "the power term read env.power_measure before the setting existed"),
+    ("sim.robot", "", "the packaged USD, the only robot before the setting existed"),
     ("reward.joint_limits", 0.0, "no joint-limit term before the setting existed"),
     ("reward.soft_joint_limit", 0.9, "the default; read only by the joint-limit term, off before it existed"),
     ("sim.contact_ke", 2.0e4, "its default; read only by the featherstone backend, which no training used before"),

@@ -132,7 +132,7 @@ class DiffRollout:
         carried by its calf, so it does not turn with the wheel within a substep) instead of inside Featherstone
         (Newton's ``eval_body_contact``, the point fixed on the wheel). Same forward forces (docs/differentiable.md)."""
         with wp.ScopedDevice(self.device):
-            self.model = robot.scene_builder(n).finalize(device=self.device, requires_grad=True)
+            self.model = robot.scene_builder(n, cfg.robot or None).finalize(device=self.device, requires_grad=True)
             self.layout = lay = robot.robot_layout(self.model)
             apply_joint_model(self.model, lay, cfg.joint_model)
             self.solver, self.pipeline, _ = penalty_physics(self.model, cfg)

@@ -47,19 +47,29 @@ def robot_usd_path() -> str:
     return os.environ.get("WQWARP_ROBOT_USD") or C.WHEELED_GO1_USD
 
 
+def is_mjcf(path: str) -> bool:
+    """Whether a robot description is an MJCF file (by its ``.xml`` extension); anything else is read as USD."""
+    return path.lower().endswith(".xml")
+
+
 def add_robot(builder: newton.ModelBuilder, usd_path: str | None = None) -> None:
     """Add one wheeled Go1 (free-floating base) to ``builder``; self-collisions off (legs cannot reach each other).
-    A missing or unreadable asset is a ValueError naming the file."""
+    ``usd_path`` is a USD or an MJCF (``.xml``, e.g. the paper authors' MuJoCo robot); an MJCF's wheel joints whose
+    axis points to -y are turned to +y (:func:`_wheels_roll_forward`). A missing or unreadable asset is a ValueError
+    naming the file."""
     usd_path = usd_path or robot_usd_path()
     if not os.path.isfile(usd_path):
         raise ValueError(
             f"robot asset {usd_path} does not exist (regenerate it with tools/build_wheeled_go1.py, or "
             "reinstall wqwarp)"
         )
-    joints = builder.joint_count
+    joints, shapes = builder.joint_count, builder.shape_count
     try:
-        builder.add_usd(usd_path, enable_self_collisions=False, floating=True)
-    except Exception as e:  # noqa: BLE001 - USD and Newton raise many types for a broken file
+        if is_mjcf(usd_path):  # the simulator's own options (time step, solver) stay
+            builder.add_mjcf(usd_path, enable_self_collisions=False, floating=True, parse_mujoco_options=False)
+        else:
+            builder.add_usd(usd_path, enable_self_collisions=False, floating=True)
+    except Exception as e:  # noqa: BLE001 - USD, MJCF and Newton raise many types for a broken file
         detail = " ".join(str(e).split())[:300]  # USD's messages span lines: keep the error to one
         raise ValueError(f"robot asset {usd_path} could not be read: {type(e).__name__}: {detail}") from e
     if builder.joint_count - joints < len(C.ACTUATED_JOINT_NAMES):
@@ -67,6 +77,38 @@ def add_robot(builder: newton.ModelBuilder, usd_path: str | None = None) -> None
             f"robot asset {usd_path} holds {builder.joint_count - joints} joints; the wheeled Go1 has "
             f"{len(C.ACTUATED_JOINT_NAMES)} actuated ones"
         )
+    if is_mjcf(usd_path):
+        _wheels_roll_forward(builder, joints, usd_path)
+        for k in range(shapes, builder.shape_count):  # its own floor: the scene's ground plane is the one ground
+            if builder.shape_body[k] == -1:
+                builder.shape_flags[k] &= ~int(newton.ShapeFlags.COLLIDE_SHAPES | newton.ShapeFlags.COLLIDE_PARTICLES)
+
+
+def _wheels_roll_forward(builder: newton.ModelBuilder, first_joint: int, path: str) -> None:
+    """Turn every wheel joint of the robot added from joint ``first_joint`` on whose axis points to -y (body y,
+    in the zero pose) so that it points to +y: a positive wheel speed then rolls the robot forward, the project's
+    convention, on every leg. The same mechanism (axis -a at angle -q is axis a at angle q); the paper authors'
+    MJCF has the right wheels' axes at -y."""
+    import warp as wp
+
+    names = [_short(k) for k in builder.joint_label[first_joint:]]
+    q = {i: wp.quat_identity() for i in range(-1, builder.body_count)}  # body -> orientation in the zero pose
+    for j in range(first_joint, builder.joint_count):  # parents come before children
+        q[builder.joint_child[j]] = (
+            q[builder.joint_parent[j]] * builder.joint_X_p[j].q * wp.quat_inverse(builder.joint_X_c[j].q)
+        )
+    for name in C.WHEEL_JOINT_NAMES:
+        if name not in names:
+            raise ValueError(f"robot asset {path} has no joint {name}")
+        j = first_joint + names.index(name)
+        dof = builder.joint_qd_start[j]
+        axis = wp.vec3(*builder.joint_axis[dof])
+        frame = q[builder.joint_parent[j]] * builder.joint_X_p[j].q  # the joint frame, where its axis is given
+        world = wp.quat_rotate(frame, axis)
+        if abs(world[1]) < 0.9 * wp.length(world):
+            raise ValueError(f"robot asset {path}: {name}'s axis {tuple(world)} is not along the trunk's y")
+        if world[1] < 0:
+            builder.joint_axis[dof] = tuple(-float(a) for a in axis)
 
 
 def _builder() -> newton.ModelBuilder:

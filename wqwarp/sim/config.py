@@ -3,6 +3,7 @@ reading a config never loads Newton or MuJoCo)."""
 
 from __future__ import annotations
 
+import os
 import typing
 from dataclasses import dataclass, field
 from typing import Literal
@@ -71,6 +72,13 @@ class SimConfig(CheckedConfig):
     on the wheels, no damping, no dry friction; ``tools/build_wheeled_go1.py`` says why) or ``authors`` (the authors'
     MuJoCo robot: damping 0.01 N m s/rad, armature 0.01 kg m^2 and friction loss 0.2 N m on every joint,
     ``constants.AUTHORS_JOINT_MODEL``), a second physics for sim-to-sim evaluation."""
+    robot: str = field(
+        default="", metadata=since_default("the packaged USD, the only robot before the setting existed")
+    )
+    """The robot description: empty for the packaged wheeled Go1 USD (or ``$WQWARP_ROBOT_USD``), else the path of
+    a USD or an MJCF (``.xml``) with the joints ``{FR,FL,RR,RL}_{hip,thigh,calf,wheel}_joint``, e.g. the paper
+    authors' MuJoCo robot for sim-to-sim (``wqwarp.robot.asset.add_robot``). Its own masses, shapes and joint model
+    are kept (``joint_model`` ``asset``)."""
     nthread: int | None = None
     """CPU threads for ``mujoco_cpu`` (default: all cores)."""
     cuda_graph: bool = True
@@ -133,6 +141,7 @@ class SimConfig(CheckedConfig):
         )
         check_positive(self, "dt", "solver_iterations", "ls_iterations")
         check_positive(self, "leg_kp", "leg_kd", "wheel_kp", "wheel_ki", "wheel_kd", "wheel_i_limit", strict=False)
+        require(not self.robot or os.path.isfile(self.robot), "SimConfig.robot", f"no such robot file {self.robot!r}")
         for n in ("nthread", "njmax", "nconmax"):
             v = getattr(self, n)
             require(v is None or v >= 1, f"SimConfig.{n}", f"must be None or >= 1, got {v}")

@@ -77,7 +77,7 @@ class Simulator(SimBuffers):
         n = cfg.num_envs
         self.num_envs = n
         with wp.ScopedDevice(self.device):
-            self.model = robot.scene_builder(n).finalize(device=self.device)
+            self.model = robot.scene_builder(n, cfg.robot or None).finalize(device=self.device)
             self.layout = robot.robot_layout(self.model)
             apply_joint_model(self.model, self.layout, cfg.joint_model)
             self.robot_mass = float(self.model.body_mass.numpy()[: self.layout.bodies_per_world].sum())

@@ -159,7 +159,10 @@ class MujocoCpuBackend(PhysicsBackend):
 
     def set_dynamics(self, friction: np.ndarray, damping_ratio: np.ndarray, added_mass: np.ndarray) -> None:
         base = self.mj_model
-        trunk = base.body("_wheeled_go1_trunk").id
+        import mujoco
+
+        names = [mujoco.mj_id2name(base, mujoco.mjtObj.mjOBJ_BODY, i) or "" for i in range(base.nbody)]
+        trunk = next(i for i, n in enumerate(names) if n.endswith(f"_{C.TRUNK_BODY}"))  # from a USD or an MJCF
         models = []
         for i in range(self.sim.num_envs):
             m = copy.copy(base)
@@ -177,7 +180,7 @@ def _template_mj_model(cfg):
     import mujoco
     import newton
 
-    template = robot.scene_builder(1).finalize(device="cpu")
+    template = robot.scene_builder(1, cfg.robot or None).finalize(device="cpu")
     apply_joint_model(template, robot.robot_layout(template), cfg.joint_model)
     log = logging.getLogger("newton")
     level = log.level
@@ -205,9 +208,17 @@ def _add_contact_sensors(spec, mujoco) -> tuple[list[int], list[int]]:
     """
     ground = next(g.name for g in spec.geoms if g.type == mujoco.mjtGeom.mjGEOM_PLANE)
 
+    def find_body(name: str) -> str:  # Newton names a body by its path: "_wheeled_go1_FR_wheel" from the USD,
+        # "wheeled_go1_worldbody_trunk_..._FR_calf_FR_wheel" from an MJCF
+        matches = [b.name for b in spec.bodies if b.name.endswith(f"_{name}")]
+        if len(matches) != 1:
+            raise ValueError(f"robot body {name}: {len(matches)} bodies named so in the MuJoCo model")
+        return matches[0]
+
     def find_geom(body_name: str) -> str:
+        body = find_body(body_name)
         for g in spec.geoms:
-            if g.name.startswith(f"/wheeled_go1/{body_name}/"):
+            if g.parent.name == body and (g.contype or g.conaffinity):
                 return g.name
         raise ValueError(f"no collision geom on {body_name}")
 
@@ -232,7 +243,7 @@ def _add_contact_sensors(spec, mujoco) -> tuple[list[int], list[int]]:
         s = spec.add_sensor(
             type=mujoco.mjtSensor.mjSENS_CONTACT,
             objtype=mujoco.mjtObj.mjOBJ_BODY,
-            objname=f"_wheeled_go1_{name}",
+            objname=find_body(name),
             reftype=mujoco.mjtObj.mjOBJ_GEOM,
             refname=ground,
         )
