@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+import os
 import shlex
 
 import numpy as np
@@ -15,6 +16,8 @@ import torch
 from wqwarp.eval.metrics import TaskMetrics
 from wqwarp.kernels.power import REPORTED_POWER
 from wqwarp.rl.presets import make_preset
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _power(**watts) -> dict:
@@ -289,12 +292,47 @@ def test_physics_variants_are_one_registry_whose_overrides_are_recorded():
     from wqwarp.eval.physics import PHYSICS, PHYSICS_VARIANTS, physics_variant
     from wqwarp.robot.constants import AUTHORS_GROUND_FRICTION
 
-    assert list(PHYSICS) == list(PHYSICS_VARIANTS) == ["train", "dt0.001", "authors", "authors_dt0.001"]
+    assert (
+        list(PHYSICS)
+        == list(PHYSICS_VARIANTS)
+        == [
+            "train",
+            "dt0.001",
+            "authors",
+            "authors_dt0.001",
+            "authors_robot",
+            "authors_robot_control",
+        ]
+    )
     assert PHYSICS["train"] == {} and PHYSICS["dt0.001"] == {"dt": 0.001}
     assert PHYSICS["authors_dt0.001"] == {"dt": 0.001, "joint_model": "authors", "friction": AUTHORS_GROUND_FRICTION}
+    assert PHYSICS["authors_robot_control"]["sim.wheel_kp"] == 2.0 and PHYSICS["authors_robot"]["robot"] == "given"
     assert all(v.doc for v in PHYSICS_VARIANTS.values())
     with pytest.raises(ValueError, match="unknown physics 'bullet'; choose from train, dt0.001"):
         physics_variant("bullet")
+
+
+def test_sim_to_sim_on_the_authors_robot_runs_a_policy_on_their_mjcf_under_both_control_laws(tmp_path, save_checkpoint):
+    """``--physics authors_robot,authors_robot_control --robot PATH``: the policy closed loop on the paper authors'
+    MuJoCo robot (their masses: 14.26 kg), under this project's control law and under theirs (wheels P 2, no
+    integral); each physics records its robot and gains; a variant without ``--robot`` is one clear error."""
+    from wqwarp.eval.protocols import make_options, run_protocol
+
+    cfg = make_preset("ours")
+    cfg.sim.num_envs = 2
+    path = str(save_checkpoint(tmp_path / "model_0.pt", cfg))
+    mjcf = os.path.join(ROOT, "tests", "data", "authors_wheeled_go1", "wheeled_go1.xml")
+    opts = dict(checkpoint=path, tasks="stand", num_envs=2, seconds=2.1, physics="authors_robot,authors_robot_control")
+    out = run_protocol("tracking", make_options("tracking", robot=mjcf, **opts), io.StringIO())
+    sims = {p: out["sim2sim"][p]["config"]["sim"] for p in ("authors_robot", "authors_robot_control")}
+    assert all(s["robot"] == mjcf for s in sims.values()) and out["config"]["sim"]["robot"] == ""
+    assert (sims["authors_robot"]["wheel_kp"], sims["authors_robot_control"]["wheel_kp"]) == (0.5, 2.0)
+    assert sims["authors_robot_control"]["wheel_ki"] == 0.0
+    for p in sims:
+        r = out["sim2sim"][p]["results"][0]
+        assert r["upright"] == 1.0 and r["mean_p_elec"] > 0
+    with pytest.raises(ValueError, match="builds the robot from --robot PATH"):
+        run_protocol("tracking", make_options("tracking", **opts), io.StringIO())
 
 
 def test_protocols_name_the_gaits_of_the_checkpoints_library(tmp_path, save_checkpoint):

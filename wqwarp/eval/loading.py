@@ -93,13 +93,15 @@ def make_policy_runner(
     physics: str = "train",
     seed: int | None = None,
     criterion: str | None = None,
+    robot: str | None = None,
 ) -> PolicyRunner:
     """Build the environment from the configuration stored in ``checkpoint`` (with ``evaluation_config``'s named
     overrides; ``cfg`` replaces it entirely) and load the policy, estimator and gait selector. ``preset`` is the
     label of the results; if given it must match how the checkpoint was trained. Raises ValueError for a missing
     file, a checkpoint without a readable configuration, another observation/action layout, a wrong preset, a dt
     that does not divide the policy step, an unknown ``physics`` (``wqwarp.eval.physics.PHYSICS_VARIANTS``), or a
-    ``criterion`` (overriding the checkpoint's gait selection rule) that the checkpoint cannot run."""
+    ``criterion`` (overriding the checkpoint's gait selection rule) that the checkpoint cannot run; ``robot`` is the
+    robot description a ``physics`` variant that builds one reads."""
     from wqwarp.rl.runner import WqRunner
 
     if not os.path.isfile(checkpoint):
@@ -119,6 +121,7 @@ def make_policy_runner(
             physics=physics,
             seed=seed,
             criterion=criterion,
+            robot=robot,
         )
     preset = preset or recorded or "unknown"
     env = WheeledGo1Env(cfg)

@@ -26,14 +26,22 @@ class PhysicsVariant:
     and friction loss)."""
     friction: float | None = None
     """Ground friction of every contact (``domain_rand.nominal_friction``) [-]."""
+    robot: bool = False
+    """Build the robot from the description the evaluation is given (``--robot PATH``, ``SimConfig.robot``: a USD or
+    an MJCF such as the paper authors' ``wheeled_go1.xml``) with its own masses, shapes and joint model."""
+    sim: tuple[tuple[str, object], ...] = ()
+    """Further ``SimConfig`` fields, (name, value) pairs (the control law's gains)."""
 
     def overrides(self) -> dict:
         """The set fields as a dict (recorded as ``"overrides"`` in result files)."""
-        return {
+        out = {
             k: v
             for k, v in (("dt", self.dt), ("joint_model", self.joint_model), ("friction", self.friction))
             if v is not None
         }
+        if self.robot:
+            out["robot"] = "given"
+        return {**out, **{f"sim.{k}": v for k, v in self.sim}}
 
 
 PHYSICS_VARIANTS = {
@@ -53,6 +61,22 @@ PHYSICS_VARIANTS = {
             dt=0.001,
             joint_model="authors",
             friction=AUTHORS_GROUND_FRICTION,
+        ),
+        PhysicsVariant(
+            "authors_robot",
+            "the robot built from --robot (the paper authors' MuJoCo robot: their masses, collision shapes and joint "
+            "model) on their ground friction 0.6, under this project's control law",
+            friction=AUTHORS_GROUND_FRICTION,
+            robot=True,
+        ),
+        PhysicsVariant(
+            "authors_robot_control",
+            "authors_robot under the authors' control law: legs PD Kp 40 Kd 1 (this project's too), wheels a "
+            "proportional gain 2 N m s/rad on the speed target (their harness's Kd 2) with no integral; the airborne "
+            "wheel check is off, it assumes this project's wheel inertia (theirs carries armature 0.01 kg m^2)",
+            friction=AUTHORS_GROUND_FRICTION,
+            robot=True,
+            sim=(("wheel_kp", 2.0), ("wheel_ki", 0.0), ("wheel_kd", 0.0), ("check_wheel_stability", False)),
         ),
     )
 }
@@ -79,14 +103,21 @@ def evaluation_config(
     criterion: str | None = None,
     physics: str = "train",
     seed: int | None = None,
+    robot: str | None = None,
 ) -> EnvConfig:
     """A new config for evaluation from a checkpoint's ``trained`` one, with these named overrides only: robot count,
     device, domain randomisation and pushes (off by default; the protocol applies its own pushes), the physics step
     ``dt`` [s] (the 50 Hz policy step is kept: decimation = policy step / dt), the predictive selection outside
     training (``argmin`` or ``sample``), the selection ``criterion`` (a rule A/B on one policy), a
     :data:`PHYSICS_VARIANTS` entry (its dt yields to an explicit ``dt``) and the env's random ``seed`` (spawn yaws,
-    pushes, sampled gaits). ``trained`` is not modified."""
+    pushes, sampled gaits), and for a variant that builds the robot from a description, its path ``robot``.
+    ``trained`` is not modified."""
     variant = physics_variant(physics)
+    if variant.robot and not robot:
+        raise ValueError(
+            f"physics {physics!r} builds the robot from a description: give its path (--robot PATH, e.g. the paper "
+            "authors' MJCF, tests/data/authors_wheeled_go1/wheeled_go1.xml)"
+        )
     dt = dt if dt is not None else variant.dt
     cfg = copy.deepcopy(trained)
     cfg.sim.num_envs = num_envs
@@ -97,6 +128,10 @@ def evaluation_config(
         cfg.sim.joint_model = variant.joint_model
     if variant.friction is not None:
         cfg.domain_rand.nominal_friction = variant.friction
+    if variant.robot:
+        cfg.sim.robot = robot
+    for name, value in variant.sim:
+        setattr(cfg.sim, name, value)
     if dt is not None:
         policy_dt = cfg.sim.dt * cfg.sim.decimation
         dec = round(policy_dt / dt) if dt > 0 else 0

@@ -10,6 +10,7 @@ robot recovers if its trunk never touches the ground. Sim-to-sim: the same tasks
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from dataclasses import dataclass
 from typing import TextIO
@@ -155,6 +156,12 @@ class TrackingOptions(SelectionOptions):
         help="sim-to-sim: comma-separated physics to evaluate after the training physics, from "
         f"{', '.join(SIM2SIM_CHOICES)}; deltas against the training physics are printed",
     )
+    robot: str | None = option(
+        None,
+        help="sim-to-sim: the robot description (USD or MJCF) that the physics authors_robot and "
+        "authors_robot_control build, e.g. the paper authors' tests/data/authors_wheeled_go1/wheeled_go1.xml "
+        "(github xu-yang16/wheeled-quadruped-sim2sim, resources/wheeled_go1/xml/, MIT)",
+    )
     dt: float | None = option(
         None,
         help="physics step [s] (default: the training value 0.005); the "
@@ -205,6 +212,11 @@ class TrackingOptions(SelectionOptions):
         bad_physics = [x for x in self.physics_list() if x not in SIM2SIM_CHOICES]
         if bad_physics:
             raise ValueError(f"--physics {bad_physics}: choose from {', '.join(SIM2SIM_CHOICES)}")
+        needs_robot = [x for x in self.physics_list() if PHYSICS_VARIANTS[x].robot]
+        if needs_robot and not self.robot:
+            raise ValueError(f"--physics {','.join(needs_robot)} builds the robot from --robot PATH; none given")
+        if self.robot and not os.path.isfile(self.robot):
+            raise ValueError(f"--robot {self.robot}: no such file")
         if self.push_interval <= 0:
             raise ValueError(f"--push-interval must be > 0 s, got {self.push_interval}")
         self.levels()
@@ -254,6 +266,7 @@ def _load(opts: TrackingOptions, phys: str):
         physics=phys,
         seed=opts.seed,
         criterion=opts.criterion,
+        robot=opts.robot,
     )
     if opts.zero_residual:
         if not runner.env.residual_mode:
