@@ -159,10 +159,7 @@ class MujocoCpuBackend(PhysicsBackend):
 
     def set_dynamics(self, friction: np.ndarray, damping_ratio: np.ndarray, added_mass: np.ndarray) -> None:
         base = self.mj_model
-        import mujoco
-
-        names = [mujoco.mj_id2name(base, mujoco.mjtObj.mjOBJ_BODY, i) or "" for i in range(base.nbody)]
-        trunk = next(i for i, n in enumerate(names) if n.endswith(f"_{C.TRUNK_BODY}"))  # from a USD or an MJCF
+        trunk = _robot_body([base.body(i).name for i in range(base.nbody)], C.TRUNK_BODY)
         models = []
         for i in range(self.sim.num_envs):
             m = copy.copy(base)
@@ -201,6 +198,15 @@ def _template_mj_model(cfg):
     return spec.compile(), wheel_cols, body_cols
 
 
+def _robot_body(names: list[str], name: str) -> int:
+    """Index in ``names`` (a MuJoCo model's body names) of the robot body ``name``: Newton names a body by its path,
+    ``_wheeled_go1_FR_wheel`` from the USD, ``wheeled_go1_worldbody_trunk_..._FR_calf_FR_wheel`` from an MJCF."""
+    matches = [i for i, n in enumerate(names) if n.endswith(f"_{name}")]
+    if len(matches) != 1:
+        raise ValueError(f"robot body {name}: {len(matches)} bodies named so in the MuJoCo model")
+    return matches[0]
+
+
 def _add_contact_sensors(spec, mujoco) -> tuple[list[int], list[int]]:
     """Add MuJoCo contact sensors against the ground: per wheel geom (found + force), per collision body (found).
 
@@ -208,12 +214,10 @@ def _add_contact_sensors(spec, mujoco) -> tuple[list[int], list[int]]:
     """
     ground = next(g.name for g in spec.geoms if g.type == mujoco.mjtGeom.mjGEOM_PLANE)
 
-    def find_body(name: str) -> str:  # Newton names a body by its path: "_wheeled_go1_FR_wheel" from the USD,
-        # "wheeled_go1_worldbody_trunk_..._FR_calf_FR_wheel" from an MJCF
-        matches = [b.name for b in spec.bodies if b.name.endswith(f"_{name}")]
-        if len(matches) != 1:
-            raise ValueError(f"robot body {name}: {len(matches)} bodies named so in the MuJoCo model")
-        return matches[0]
+    bodies = [b.name for b in spec.bodies]
+
+    def find_body(name: str) -> str:
+        return bodies[_robot_body(bodies, name)]
 
     def find_geom(body_name: str) -> str:
         body = find_body(body_name)
