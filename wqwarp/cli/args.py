@@ -122,6 +122,23 @@ def parse_counts(text: str) -> list[int]:
     return values
 
 
+def parse_seeds(text: str) -> list[int]:
+    """``"11,12,13"`` or ``"11-13"`` (ranges inclusive, mixed with single seeds) -> [11, 12, 13], in the order given;
+    ValueError unless at least one seed, all non-negative integers, none twice."""
+    seeds: list[int] = []
+    try:
+        for part in (s.strip() for s in text.split(",")):
+            if not part:
+                continue
+            lo, sep, hi = part.partition("-")
+            seeds += list(range(int(lo), int(hi) + 1)) if sep else [int(lo)]
+    except ValueError:
+        seeds = []
+    if not seeds or min(seeds) < 0 or len(set(seeds)) < len(seeds):
+        raise ValueError(f"expected seeds like 11,12,13 or 11-13 (non-negative, none twice), got {text!r}")
+    return seeds
+
+
 def doc_parser(doc: str, epilog_from: int = 1, **kwargs) -> ArgumentParser:
     """The parser of a command whose module docstring ``doc`` is its help: the first paragraph the description, the
     paragraphs from ``epilog_from`` on the epilog, printed as written (``--help``)."""

@@ -10,7 +10,7 @@ import sys
 import time
 from dataclasses import asdict
 
-from wqwarp.cli.args import ArgumentParser, UsageError, entry_point
+from wqwarp.cli.args import ArgumentParser, UsageError, entry_point, parse_seeds
 from wqwarp.eval import reproduce as R
 from wqwarp.eval.report import method_of, write_report
 from wqwarp.rl.tasks import TASKS
@@ -37,7 +37,13 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "samples per task, the tasks' own budget; split it over sessions with --tasks and --import-from), "
         "gpu (the paper's 4096 x 4000; use --device cuda:0). Default smoke",
     )
-    p.add_argument("--seeds", type=int, default=1, help="seeds 1..N per task (default 1; bars show their spread)")
+    p.add_argument(
+        "--seeds",
+        default="1",
+        help="training seeds of every task: a list or ranges, e.g. 11,12,13 or 11-13 (default 1); each seed is "
+        "trained and evaluated (its evaluation seed is the same), and the page gives the mean and 95 %% confidence "
+        "interval over seeds once there are two or more",
+    )
     p.add_argument(
         "--tasks",
         "--presets",
@@ -110,11 +116,15 @@ def main(argv: list[str] | None = None) -> int:
     tasks = [x.strip() for x in args.tasks.split(",") if x.strip()]
     stages = [x.strip() for x in args.stages.split(",") if x.strip()]
     bad = [x for x in tasks if x not in TASKS] + [x for x in stages if x not in R.STAGES]
-    if bad or not tasks or not stages or args.seeds < 1 or args.torch_threads < 1:
+    if bad or not tasks or not stages or args.torch_threads < 1:
         raise UsageError(
-            f"unknown task or stage {bad}, or --seeds / --torch-threads < 1 (tasks: {', '.join(TASKS)}; "
+            f"unknown task or stage {bad}, or --torch-threads < 1 (tasks: {', '.join(TASKS)}; "
             f"stages: {', '.join(R.STAGES)})"
         )
+    try:
+        seeds = parse_seeds(args.seeds)
+    except ValueError as e:
+        raise UsageError(f"--seeds: {e}") from None
     methods = [method_of(t) for t in tasks]
     if len(set(methods)) < len(methods):
         raise UsageError(f"--tasks {args.tasks}: one task per method (the page compares the methods)")
@@ -123,7 +133,6 @@ def main(argv: list[str] | None = None) -> int:
     if args.import_from and not os.path.isdir(args.import_from):
         raise UsageError(f"--import-from {args.import_from}: no such folder")
     os.makedirs(args.work, exist_ok=True)
-    seeds = list(range(1, args.seeds + 1))
     if args.import_from:
         for line in R.import_finished(args.import_from, args.work, budget, tasks, seeds):
             print(line)

@@ -132,13 +132,16 @@ def main(argv=None) -> int:
     from wqwarp.rl.env import WheeledGo1Env
     from wqwarp.rl.runner import WqRunner
     from wqwarp.utils.io import write_text_atomic
+    from wqwarp.utils.provenance import git_state
 
     log_dir = resolve_log_dir(args)
+    git = git_state()  # config.json and the log's first line name the code that trained
     say = print if rank == 0 else (lambda *a, **k: None)
     ranks = f" x {world} processes" if world > 1 else ""
     say(
         f"wqwarp: task {args.task}, {cfg.sim.num_envs} robots{ranks} on {device} (threads: torch "
-        f"{threads['torch']}, update {threads['update']}, physics {threads['physics']}), log dir {log_dir}",
+        f"{threads['torch']}, update {threads['update']}, physics {threads['physics']}), log dir {log_dir}, "
+        f"commit {git['commit']}{' (uncommitted changes)' if git['tracked_changes'] else ''}",
         flush=True,
     )
     t_setup = time.time()
@@ -153,7 +156,13 @@ def main(argv=None) -> int:
     )
     if rank == 0:  # the resolved configuration (preset + command line) and the command line that produced it
         os.makedirs(log_dir, exist_ok=True)
-        record = {**resolved_config(args), "threads": threads, "world_size": world, "env": to_dict(cfg)}
+        record = {
+            **resolved_config(args),
+            "git": git,
+            "threads": threads,
+            "world_size": world,
+            "env": to_dict(cfg),
+        }
         name = "config.json"  # a resumed run keeps the first record and adds its own beside it
         if run.resume and os.path.isfile(os.path.join(log_dir, name)):
             name = f"config_resume_{checkpoint_iteration(run.resume)}.json"
