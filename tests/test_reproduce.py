@@ -38,6 +38,9 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
         assert d["seed"] == 1 and d["config"]["sim"]["dt"] == 0.005 and d["wall_time_s"] > 0
         assert (res / f"{name}.json").is_file()
     summary, md = _load(res / "results.json"), (out / "RESULTS.md").read_text()
+    from wqwarp.eval.report import regenerate_page
+
+    assert regenerate_page(str(out), "smoke") == (md, md)  # the page is a function of its results.json
     assert summary["trained_as"] == ["ours", "pmtg"] and summary["tasks"] == ["ours", "pmtg"]  # the recipes, named
     assert "Written by `python train/reproduce.py --budget smoke --tasks ours,pmtg`" in md  # the command
     assert f"`ours` = {TASKS['ours'].summary}" in md and "`baseline` =" not in md  # ... and what they are
@@ -61,7 +64,9 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     assert f"{100 * r['upright']:.1f} / 56.8" in row and "- / 26.5" in row  # PMTG ours/paper; Baseline not run
     # Sim-to-sim: each physics as a named override, deltas = other - train.
     s2s = _load(ev / "ours_s1_sim2sim.json")
-    assert set(s2s["sim2sim"]) == {"dt0.001", "authors"}
+    assert set(s2s["sim2sim"]) == {"dt0.001", "authors", "authors_robot", "authors_robot_control"}
+    assert s2s["sim2sim"]["authors_robot"]["config"]["sim"]["robot"].endswith("authors_wheeled_go1/wheeled_go1.xml")
+    assert (ev / "pmtg_s1_sim2sim.json").is_file()  # every method on the authors' robot (issue 49)
     assert s2s["sim2sim"]["dt0.001"]["config"]["sim"]["decimation"] == 20
     assert s2s["sim2sim"]["authors"]["config"]["sim"]["joint_model"] == "authors"
     base = {r["task"]: r for r in s2s["results"]}
@@ -325,3 +330,81 @@ def test_import_restores_the_training_log_the_report_committed_gzipped(tmp_path,
     ]
     for stem in ("ours_s1", "pmtg_s1"):
         assert (work / "train" / f"{stem}.log").read_text() == f"{stem} progress\n"
+
+
+def test_report_judges_the_papers_claims_from_intervals_over_seeds():
+    """Claims are paired seed by seed: Ours at half the trot's power on v_x on all three seeds holds (interval
+    [0.5, 0.5]); at 1, 1.2 and 1 times on v_y the interval straddles 1 (undecided at 3 seeds); twice on w does not
+    hold. The three-task mean is each seed's mean first (ratios 0.82, 0.90, 0.86 here). A seed one method lacks is
+    left out of the pair; one seed is always undecided. Push recovery compares shares by differences in points."""
+    from wqwarp.eval.report import _claim_rows, _stat, paper_claims
+    from wqwarp.eval.stats import ratio_ci
+
+    def st(*values, seeds=(11, 12, 13)):
+        return _stat(list(zip(seeds, values, strict=True)))
+
+    ours = {
+        "vx": {"mean_p_cost": st(10.0, 12.0, 11.0), "mse": st(0.001, 0.001, 0.001)},
+        "vy": {"mean_p_cost": st(30.0, 36.0, 33.0), "mse": st(0.01, 0.01, 0.01), "legged_share": st(0.9, 0.8, 0.95)},
+        "wz": {"mean_p_cost": st(40.0, 44.0, 42.0), "mse": st(0.01, 0.01, 0.01), "legged_share": st(0.2, 0.9, 0.5)},
+        "stand": {"mean_p_cost": st(5.0, 5.0, 5.0)},
+    }
+    trot = {
+        "vx": {"mean_p_cost": st(20.0, 24.0, 22.0), "mse": st(0.002, 0.002, 0.002)},
+        "vy": {"mean_p_cost": st(30.0, 30.0, 33.0), "mse": st(0.01, 0.02, 0.01)},
+        "wz": {"mean_p_cost": st(20.0, 22.0, 21.0, seeds=(11, 12, 14)), "mse": st(0.01, 0.01, 0.01)},
+    }
+    push = {str(lvl): {t: {"upright": st(1.0, 1.0, 0.98)} for t in ("stand", "vx", "vy", "wz")} for lvl in (0.5, 0.7)}
+    push_trot = {
+        str(lvl): {t: {"upright": st(0.9, 0.95, 0.9)} for t in ("stand", "vx", "vy", "wz")} for lvl in (0.5, 0.7)
+    }
+    summary = {
+        "seeds": [11, 12, 13],
+        "presets": {"ours": {"tracking": ours, "push": push}, "no_predictor": {"tracking": trot, "push": push_trot}},
+    }
+    claims = paper_claims(summary)
+    headline = next(c for c in claims if c["measure"] == "Ours / fixed trot, p_cost")
+    cells = {c["label"]: c for c in headline["cells"]}
+    assert cells["v_x task"]["estimate"] == pytest.approx(0.5) and cells["v_x task"]["ci95"] == pytest.approx(
+        [0.5, 0.5]
+    )
+    assert cells["v_x task"]["verdict"] == "holds" and cells["v_x task"]["n"] == 3
+    assert cells["v_y task"]["verdict"] == "undecided" and cells["v_y task"]["per_seed"] == pytest.approx(
+        {"11": 1.0, "12": 1.2, "13": 1.0}
+    )
+    assert cells["w task"]["verdict"] == "does not hold" and cells["w task"]["n"] == 2  # seed 13 / 14 unpaired
+    three = cells["three moving tasks"]  # per seed: mean over the tasks the seed has all of (11, 12)
+    want = ratio_ci([80 / 3, 92 / 3], [70 / 3, 76 / 3])
+    assert three["estimate"] == pytest.approx(want["ratio"]) and three["ci95"] == pytest.approx(want["ci95"])
+    legged = next(c for c in claims if c["measure"].startswith("Ours, share of robot-time"))
+    assert [c["verdict"] for c in legged["cells"]] == ["holds", "undecided"]
+    recover = [c for c in claims if "push recovery" in c["claim"]]
+    assert len(recover) == 2 and recover[0]["cells"][0]["estimate"] == pytest.approx((0.1 + 0.05 + 0.08) / 3)
+    assert recover[0]["cells"][0]["verdict"] == "holds"
+    rows = _claim_rows(claims)
+    assert "| v_x task | 0.50x [0.50x, 0.50x] | 3 | holds |" in "\n".join(rows)
+    assert any("| w task |" in r and r.endswith("| 2 | does not hold |") for r in rows)
+    assert any("+7.7 pt [" in r for r in rows)
+    one = {"seeds": [1], "presets": {}}
+    for p, block in summary["presets"].items():
+        one["presets"][p] = {"tracking": {}}
+        for t, b in block["tracking"].items():
+            one["presets"][p]["tracking"][t] = {k: st(v["mean"], seeds=(1,)) for k, v in b.items()}
+    assert {c["verdict"] for c in paper_claims(one)[0]["cells"]} == {"undecided"}
+
+
+def test_the_sim2sim_table_pairs_each_physics_with_the_training_one_by_seed():
+    """Each cell is the mean over the three tasks per seed, its change the paired difference: MSE 0.01 on every
+    task under training physics, 0.02 on the authors' robot, on two seeds -> dMSE +0.0100 ± 0.0000."""
+    from wqwarp.eval.report import _sim2sim_rows, _stat
+
+    def block(mse, p):
+        one = {"mse": _stat([(1, mse), (2, mse)]), "mean_p_cost": _stat([(1, p), (2, p + 2)]), "mean_p_elec": None}
+        return {t: {**one, "upright": _stat([(1, 1.0), (2, 1.0)])} for t in ("vx", "vy", "wz")}
+
+    pres = {"ours": {"sim2sim": {"train": block(0.01, 20.0), "authors_robot": block(0.02, 25.0)}}}
+    (row,) = _sim2sim_rows(pres)
+    assert row == (
+        "| Ours | authors_robot | 0.0200 ± 0.0000 | 0.0100 ± 0.0000 | 26.0 ± 12.7 | 5.0 ± 0.0 | - | - | "
+        "100.0 ± 0.0 | 0.0 ± 0.0 |"
+    )

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from wqwarp.eval.stats import T_975, mean_ci, ratio_ci, t_975, verdict
+from wqwarp.eval.stats import T_975, diff_ci, mean_ci, paired, per_seed_stat, ratio_ci, t_975, verdict
 
 
 def test_the_t_quantile_is_the_table_then_an_expansion_that_joins_it():
@@ -53,3 +53,14 @@ def test_a_claim_holds_only_when_the_whole_interval_is_on_its_side():
     assert verdict([1.0, 1.4], 1.0, "below") == "does not hold"
     assert verdict([1.2, 1.4], 1.0, "above") == "holds" and verdict([0.2, 1.0], 1.0, "above") == "does not hold"
     assert verdict(None, 1.0, "below") == "undecided"
+
+
+def test_per_seed_values_pair_two_methods_on_the_seeds_they_share():
+    a = per_seed_stat([(11, 1.0), (12, 3.0), (13, None)])  # seed 13 without a record
+    b = per_seed_stat([(12, 2.0), (13, 5.0), (11, 4.0)])
+    assert a["n"] == 2 and a["mean"] == 2.0 and a["per_seed"] == {"11": 1.0, "12": 3.0}
+    assert paired(a, b) == (["11", "12"], [1.0, 3.0], [4.0, 2.0]) and paired(a, None) == ([], [], [])
+    d = diff_ci([1.0, 3.0], [4.0, 2.0])  # differences -3, 1: mean -1, sd 2*sqrt(2)
+    half = 12.706 * 2 * math.sqrt(2) / math.sqrt(2)
+    assert d["mean"] == -1.0 and d["per_seed"] == [-3.0, 1.0] and d["ci95"] == pytest.approx([-1 - half, -1 + half])
+    assert per_seed_stat([(1, None)]) is None and diff_ci([None], [1.0]) is None

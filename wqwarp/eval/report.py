@@ -61,19 +61,21 @@ def read_json(path: str) -> dict | None:
         return json.load(f)
 
 
-def _stat(values: list) -> dict | None:
-    """Mean, sample standard deviation (0 for one value) and count of the non-None ``values``."""
-    v = [float(x) for x in values if x is not None]
-    if not v:
-        return None
-    return {"mean": statistics.fmean(v), "std": statistics.stdev(v) if len(v) > 1 else 0.0, "n": len(v)}
+def _stat(pairs: list[tuple[int, float | None]]) -> dict | None:
+    """Mean, sample standard deviation, count, 95 % interval over seeds and the value of each seed, of
+    ``(seed, value)`` pairs (:func:`wqwarp.eval.stats.per_seed_stat`); None without a value."""
+    from wqwarp.eval.stats import per_seed_stat
+
+    return per_seed_stat(pairs)
 
 
 def _fmt(s: dict | None, digits: int = 1, scale: float = 1.0) -> str:
+    """``mean`` for one seed, ``mean ± h`` for several: h the half-width of the 95 % interval over seeds."""
     if s is None:
         return "-"
     text = f"{scale * s['mean']:.{digits}f}"
-    return text + (f" ± {scale * s['std']:.{digits}f}" if s["n"] > 1 else "")
+    ci = s.get("ci95")
+    return text + (f" ± {scale * (ci[1] - ci[0]) / 2:.{digits}f}" if s["n"] > 1 and ci else "")
 
 
 def _command_variance(result: dict) -> float:
@@ -86,7 +88,8 @@ def _command_variance(result: dict) -> float:
 
 
 def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
-    """Per preset: tracking and push metrics (mean/std over seeds), sim-to-sim deltas, and which files exist."""
+    """Per preset: tracking and push metrics (mean, standard deviation, 95 % interval over seeds and each seed's
+    value: :func:`_stat`), sim-to-sim results per physics, and which files exist."""
     ev = os.path.join(work, "eval")
     out: dict = {"presets": {}, "missing": []}
     for p in presets:
@@ -102,39 +105,43 @@ def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
                     out["missing"].append(f"{k} {p} seed {s}")
             for d, into in ((t, tracking), (nom, nominal)):
                 for r in (d or {}).get("results", []):
-                    into.setdefault(r["task"], []).append(r)
+                    into.setdefault(r["task"], []).append((s, r))
             if pu:
                 for r in pu["results"]:
-                    push.setdefault((r["max_push"], r["task"]), []).append(r)
+                    push.setdefault((r["max_push"], r["task"]), []).append((s, r))
             if ss:
-                for phys, block in ss.get("sim2sim", {}).items():
-                    for d in block["deltas"]:
-                        s2s.setdefault((phys, d["task"]), []).append(d)
-                for r in ss["results"]:
-                    s2s.setdefault(("train", r["task"]), []).append(r)
+                for phys, block in (("train", ss), *ss.get("sim2sim", {}).items()):
+                    for r in block["results"]:
+                        s2s.setdefault((phys, r["task"]), []).append((s, r))
         for task, rs in tracking.items():
-            entry["tracking"][task] = {m: _stat([r.get(m) for r in rs]) for m in METRICS}
-            usage = [r.get("gait_usage") or {} for r in rs]
+            entry["tracking"][task] = {m: _stat([(s, r.get(m)) for s, r in rs]) for m in METRICS}
+            usage = [r.get("gait_usage") or {} for _, r in rs]
             gaits = sorted({g for u in usage for g in u})
             entry["tracking"][task]["gait_usage"] = {g: statistics.fmean(u.get(g, 0.0) for u in usage) for g in gaits}
-            entry["tracking"][task]["outside_training_range"] = any(r.get("outside_training_range") for r in rs)
-            entry["tracking"][task]["command_variance"] = _command_variance(rs[0])
+            entry["tracking"][task]["legged_share"] = _stat(
+                [(s, sum((r.get("gait_usage") or {}).get(g, 0.0) for g in LEGGED)) for s, r in rs]
+            )
+            entry["tracking"][task]["outside_training_range"] = any(r.get("outside_training_range") for _, r in rs)
+            entry["tracking"][task]["command_variance"] = _command_variance(rs[0][1])
         for task, rs in nominal.items():  # the nominal gait with zero residual (reproduce stage nominal)
-            entry["nominal"][task] = {m: _stat([r.get(m) for r in rs]) for m in METRICS}
+            entry["nominal"][task] = {m: _stat([(s, r.get(m)) for s, r in rs]) for m in METRICS}
         for (lvl, task), rs in push.items():
-            stats = {m: _stat([r.get(m) for r in rs]) for m in ("upright", "falls")}
+            stats = {m: _stat([(s, r.get(m)) for s, r in rs]) for m in ("upright", "falls")}
             entry["push"].setdefault(str(lvl), {})[task] = stats
         for (phys, task), rs in s2s.items():
-            keys = ("mse", "mean_p_cost", "mean_p_cost_legs", "mean_p_cost_wheels", "upright")
-            entry["sim2sim"].setdefault(phys, {})[task] = {m: _stat([r.get(m) for r in rs]) for m in keys}
+            entry["sim2sim"].setdefault(phys, {})[task] = {m: _stat([(s, r.get(m)) for s, r in rs]) for m in S2S_KEYS}
         out["presets"][p] = entry
     return out
 
 
+S2S_KEYS = ("mse", "mean_p_cost", "mean_p_cost_legs", "mean_p_cost_wheels", "mean_p_elec", "upright")
+"""Metrics the page keeps of each sim-to-sim physics and task."""
+
+
 def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "vy", "wz", "stand")) -> None:
-    """The paper's Fig. 5 layout: tracking MSE and mean p_cost per task, one bar per method, error bars = standard
-    deviation over seeds. ``runs``: ``[(label, {task: {"mse": stat, "mean_p_cost": stat}})]`` with ``stat`` a
-    ``{"mean", "std", "n"}`` dict."""
+    """The paper's Fig. 5 layout: tracking MSE and mean p_cost per task, one bar per method at the mean over seeds,
+    error bars = its 95 % interval over seeds (none for one seed). ``runs``: ``[(label, {task: {"mse": stat,
+    "mean_p_cost": stat}})]`` with ``stat`` a :func:`_stat` dict."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -149,10 +156,14 @@ def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "v
         for ax, metric in zip(axes, ("mse", "mean_p_cost"), strict=True):
             stats = [res.get(t, {}).get(metric) for t in tasks]
             mean = [s["mean"] if s else np.nan for s in stats]
-            std = [s["std"] if s and s["n"] > 1 else 0.0 for s in stats]
-            spread = std if any(v > 0 for v in std) else None  # one seed: no error bars
+            cis = [s.get("ci95") if s else None for s in stats]
+            below = [m - ci[0] if ci else 0.0 for m, ci in zip(mean, cis, strict=True)]
+            above = [ci[1] - m if ci else 0.0 for m, ci in zip(mean, cis, strict=True)]
+            spread = [below, above] if any(cis) else None  # one seed: no error bars
             ax.bar(x + k * width, mean, width, yerr=spread, capsize=2, label=label)
-    for ax, title in zip(axes, ("tracking MSE of the task's axis", "mean power p_cost [W]"), strict=True):
+    n = max((s["n"] for _, r in runs for t in r.values() for s in (t.get("mse"),) if s), default=1)
+    bars = f", bars: 95 % interval over {n} seeds" if n > 1 else ""
+    for ax, title in zip(axes, (f"tracking MSE of the task's axis{bars}", f"mean power p_cost [W]{bars}"), strict=True):
         ax.set_xticks(x + width * (len(runs) - 1) / 2)
         ax.set_xticklabels([f"{TASK_NAMES[t]} task" for t in tasks])
         ax.set_title(title)
@@ -285,6 +296,7 @@ def write_report(
         "figures": figures,
         **data,
     }
+    summary["claims"] = paper_claims(summary)
     write_result_json(os.path.join(res_dir, "results.json"), summary)
     md = render_markdown(summary, budget_name, budget, res_dir, out, work, git)
     tmp = os.path.join(out, "RESULTS.md.tmp")
@@ -373,6 +385,230 @@ def _ordering_checks(summary: dict) -> list[str]:
                 f"v_x for every method) -> {'agrees' if lo == 'vx' else 'differs'}"
             )
     return lines
+
+
+MOVING = ("vx", "vy", "wz")
+"""The tasks that move (the paper's three tasks of Fig. 5)."""
+
+
+def _cell(label: str, kind: str, a, b, bound: float, side: str) -> dict:
+    """One comparison of a claim: ``kind`` ratio (``a`` / ``b`` paired by seed, :func:`wqwarp.eval.stats.ratio_ci`),
+    diff (``a - b`` paired by seed) or mean (of ``a`` alone); ``a``, ``b`` :func:`_stat` dicts. The verdict of
+    "the estimate is ``side`` ``bound``" from its 95 % interval (:func:`wqwarp.eval.stats.verdict`)."""
+    from wqwarp.eval.stats import diff_ci, mean_ci, paired, ratio_ci, verdict
+
+    est = None
+    if kind == "mean" and a:
+        m = mean_ci(list(a["per_seed"].values()))
+        est = {"estimate": m["mean"], "ci95": m["ci95"], "n": m["n"], "per_seed": a["per_seed"]}
+    elif kind in ("ratio", "diff"):
+        seeds, x, y = paired(a, b)
+        if seeds and kind == "ratio" and min(x + y) > 0:
+            r = ratio_ci(x, y)
+            est = {"estimate": r["ratio"], "ci95": r["ci95"], "n": r["n"]}
+            est["per_seed"] = dict(zip(seeds, r["per_seed"], strict=True))
+        elif seeds and kind == "diff":
+            d = diff_ci(x, y)
+            est = {"estimate": d["mean"], "ci95": d["ci95"], "n": d["n"]}
+            est["per_seed"] = dict(zip(seeds, d["per_seed"], strict=True))
+    if est is None:
+        return {"label": label, "kind": kind, "estimate": None, "ci95": None, "n": 0, "verdict": "no data"}
+    return {"label": label, "kind": kind, **est, "verdict": verdict(est["ci95"], bound, side)}
+
+
+def _per_seed(values: dict[str, list[float | None]], reduce) -> dict | None:
+    """:func:`_stat` of ``reduce`` over each seed's values (seeds missing one of them left out)."""
+    return _stat([(s, reduce(v)) for s, v in values.items() if v and None not in v])
+
+
+def _over_tasks(block: dict, metric: str, tasks=MOVING, reduce=statistics.fmean) -> dict | None:
+    """Per seed, ``reduce`` of ``metric`` over ``tasks`` of one method's tracking block (e.g. the mean power over
+    the three moving tasks), as a :func:`_stat`."""
+    stats = [(block.get(t) or {}).get(metric) for t in tasks]
+    if not all(stats):
+        return None
+    seeds = set.intersection(*(set(st["per_seed"]) for st in stats))
+    return _per_seed({sd: [st["per_seed"][sd] for st in stats] for sd in sorted(seeds, key=int)}, reduce)
+
+
+def paper_claims(summary: dict) -> list[dict]:
+    """The paper's claims about its simulation results, each judged from 95 % intervals over the training seeds
+    (the seed is the unit; two methods are compared seed by seed): ``[{"claim", "measure", "bound", "side",
+    "cells": [_cell ...]}]``. A claim on a ratio holds when the whole interval is on its side of the bound, does
+    not hold when the whole interval is on the other side, and is undecided otherwise (always at one seed)."""
+    pres = summary["presets"]
+    have = [p for p in TABLE3_ORDER if pres.get(p, {}).get("tracking")]
+    track = {p: pres[p]["tracking"] for p in have}
+    claims = []
+
+    def claim(text: str, measure: str, bound: float, side: str, cells: list[tuple]) -> None:
+        made = [_cell(label, kind, a, b, bound, side) for label, kind, a, b in cells]
+        if any(c["n"] for c in made):
+            claims.append({"claim": text, "measure": measure, "bound": bound, "side": side, "cells": made})
+
+    if "ours" in track and "no_predictor" in track:
+        o, f = track["ours"], track["no_predictor"]
+        for key, name in (("mean_p_cost", "p_cost"), ("mean_p_elec", "p_elec")):
+            cells = [
+                (f"{PLAIN_NAMES[t]} task", "ratio", (o.get(t) or {}).get(key), (f.get(t) or {}).get(key))
+                for t in MOVING
+            ]
+            cells.append(("three moving tasks", "ratio", _over_tasks(o, key), _over_tasks(f, key)))
+            claim(
+                "up to 35 % less energy than a fixed gait (here the fixed trot, Ours w/o switching)",
+                f"Ours / fixed trot, {name}",
+                1.0,
+                "below",
+                cells,
+            )
+        cells = [
+            (f"{PLAIN_NAMES[t]} task", "ratio", (o.get(t) or {}).get("mse"), (f.get(t) or {}).get("mse"))
+            for t in MOVING
+        ]
+        claim(
+            "... while maintaining comparable velocity tracking",
+            "Ours / fixed trot, MSE (within 10 %)",
+            1.1,
+            "below",
+            cells,
+        )
+    if "ours" in track:
+        cells = [
+            (
+                f"{PLAIN_NAMES[t]} vs {PAPER_NAMES[q]}",
+                "ratio",
+                (track["ours"].get(t) or {}).get("mse"),
+                (track[q].get(t) or {}).get("mse"),
+            )
+            for t in MOVING
+            for q in have
+            if q != "ours"
+        ]
+        claim(
+            "our framework consistently outperforms other methods in all tasks (tracking)",
+            "Ours / other, MSE",
+            1.0,
+            "below",
+            cells,
+        )
+        for key, name in (("mean_p_cost", "p_cost"), ("mean_p_elec", "p_elec")):
+            cells = [
+                (f"vs {PAPER_NAMES[q]}", "ratio", _over_tasks(track["ours"], key), _over_tasks(track[q], key))
+                for q in have
+                if q != "ours"
+            ]
+            claim(
+                "superior energy efficiency (lowest power over the three tasks)",
+                f"Ours / other, {name}",
+                1.0,
+                "below",
+                cells,
+            )
+    if "pmtg" in track:
+        cells = [
+            (
+                f"vs {PAPER_NAMES[q]}",
+                "ratio",
+                _over_tasks(track["pmtg"], "mean_p_cost"),
+                _over_tasks(track[q], "mean_p_cost"),
+            )
+            for q in have
+            if q != "pmtg"
+        ]
+        claim(
+            "PMTG exhibits the highest energy demand", "PMTG / other, p_cost over the three tasks", 1.0, "above", cells
+        )
+    cells = [
+        (
+            PAPER_NAMES[q],
+            "ratio",
+            (track[q].get("vx") or {}).get("mean_p_cost"),
+            _over_tasks(track[q], "mean_p_cost", ("vy", "wz"), min),
+        )
+        for q in have
+    ]
+    claim(
+        "energy consumption is minimized when only the forward velocity command is activated",
+        "p_cost on v_x / the cheaper of v_y and w",
+        1.0,
+        "below",
+        cells,
+    )
+    if "ours" in track:
+        o = track["ours"]
+        cells = [(f"{PLAIN_NAMES[t]} task", "mean", (o.get(t) or {}).get("legged_share"), None) for t in ("vy", "wz")]
+        claim(
+            "for yaw rate and lateral velocity the robot switches to a trotting gait",
+            "Ours, share of robot-time in a legged gait",
+            0.5,
+            "above",
+            cells,
+        )
+        cells = [
+            (
+                "stand vs moving",
+                "ratio",
+                (o.get("stand") or {}).get("mean_p_cost"),
+                _over_tasks(o, "mean_p_cost", MOVING, min),
+            )
+        ]
+        claim(
+            "the lowest energy consumption is recorded during stationary tasks",
+            "Ours, p_cost standing / cheapest moving task",
+            1.0,
+            "below",
+            cells,
+        )
+    push = {p: pres[p].get("push") or {} for p in TABLE3_ORDER if pres.get(p, {}).get("push")}
+    if "ours" in push:
+        for lvl in PAPER_TABLE3:
+
+            def share(p, lvl=lvl):
+                block = push[p].get(str(lvl)) or {}
+                return _over_tasks(
+                    {t: {"upright": (block.get(t) or {}).get("upright")} for t in SETTINGS}, "upright", tuple(SETTINGS)
+                )
+
+            cells = [(f"{lvl:g} m/s vs {PAPER_NAMES[q]}", "diff", share("ours"), share(q)) for q in push if q != "ours"]
+            claim(
+                "our framework significantly outperforms other methods across all scenarios (push recovery)",
+                "Ours - other, recovered share over the four settings",
+                0.0,
+                "above",
+                cells,
+            )
+    return claims
+
+
+def _claim_value(v: float, kind: str, share: bool) -> str:
+    """A claim's number as the page writes it: a ratio ``0.44x``; a share ``62 %``; a difference of shares
+    ``+3.0 pt``."""
+    if kind == "diff":
+        return f"{100 * v:+.1f} pt"
+    return f"{100 * v:.0f} %" if share else f"{v:.2f}x"
+
+
+def _claim_rows(claims: list[dict]) -> list[str]:
+    """The claims table of the page: one row per comparison, the claim's words and measure on its first."""
+    rows = [
+        "| paper's claim | measure | comparison | estimate [95 % interval] | seeds | verdict |",
+        "|---|---|---|---|---|---|",
+    ]
+    for c in claims:
+        share = c["cells"][0]["kind"] == "mean"  # a mean claim here is a share of robot-time
+        bound = _claim_value(c["bound"], c["cells"][0]["kind"], share) if c["bound"] else "0"
+        head = [c["claim"], f"{c['measure']} {'<' if c['side'] == 'below' else '>'} {bound}"]
+        for cell in c["cells"]:
+            est, ci = "-", cell["ci95"]
+            if cell["estimate"] is not None:
+                est = _claim_value(cell["estimate"], cell["kind"], share)
+                if ci:
+                    est += f" [{_claim_value(ci[0], cell['kind'], share)}, {_claim_value(ci[1], cell['kind'], share)}]"
+            n = cell["n"]
+            verdict = cell["verdict"] if cell["verdict"] != "undecided" else f"undecided at {n} seed{'s' * (n != 1)}"
+            rows.append(f"| {head[0]} | {head[1]} | {cell['label']} | {est} | {n} | {verdict} |")
+            head = ["", ""]
+    return rows
 
 
 LEGGED = ("trotting", "walking")
@@ -487,6 +723,32 @@ def _task_lines(names: list[str]) -> str:
     return "; ".join(f"`{n}` = {TASKS[n].summary}" if n in TASKS else f"`{n}`" for n in names) or "not recorded"
 
 
+def _sim2sim_rows(pres: dict) -> list[str]:
+    """The sim-to-sim table's rows: per method and physics, each seed's mean over the moving tasks of MSE, p_cost,
+    p_elec and upright share, and its change from the training physics paired by seed."""
+    from wqwarp.eval.stats import diff_ci, paired
+
+    rows = []
+    for p, e in pres.items():
+        s2s = e.get("sim2sim") or {}
+        train = s2s.get("train") or {}
+        for phys, block in s2s.items():
+            if phys == "train":
+                continue
+            cells = []
+            for m, digits, scale in (
+                ("mse", 4, 1.0),
+                ("mean_p_cost", 1, 1.0),
+                ("mean_p_elec", 1, 1.0),
+                ("upright", 1, 100.0),
+            ):
+                here, base = _over_tasks(block, m), _over_tasks(train, m)
+                _, x, y = paired(here, base)
+                cells += [_fmt(here, digits, scale), _fmt(diff_ci(x, y) if x else None, digits, scale)]
+            rows.append(f"| {PAPER_NAMES[p]} | {phys} | " + " | ".join(cells) + " |")
+    return rows
+
+
 def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: str, work: str, git: dict) -> str:
     rel = os.path.relpath(res_dir, out)
     pres = summary["presets"]
@@ -586,7 +848,8 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     if checks:
         lines += [
             "",
-            "Against the paper's statements about Fig. 5 (the figure's bars are not in the source):",
+            "Against the paper's statements about Fig. 5 (the figure's bars are not in the source), by the means over "
+            "seeds (what their intervals decide: the claims below):",
             "",
             *checks,
         ]
@@ -597,6 +860,22 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
             "legged gaits for lateral motion) and the targets set for it (issue 22):",
             "",
             *targets,
+        ]
+    if summary.get("claims"):
+        n = len(summary["seeds"])
+        lines += [
+            "",
+            "## The paper's claims, judged over seeds",
+            "",
+            f"Each claim of the paper's simulation results, measured on {n} training seed{'s' * (n != 1)} "
+            "(`wqwarp/eval/stats.py`): the seed is the unit (robots of one policy are not independent samples); two "
+            "methods are compared seed by seed, a ratio by the geometric mean of the seeds' ratios with the Student-t "
+            "95 % interval of their logarithms, a difference by the t interval of the seeds' differences. A claim "
+            "**holds** when its whole interval is on the claimed side of the bound, **does not hold** when it is "
+            "wholly on the other side, and is **undecided** otherwise (always at one seed). Powers over the three "
+            "tasks are each seed's mean over v_x, v_y and w.",
+            "",
+            *_claim_rows(summary["claims"]),
         ]
     # Table III.
     lines += [
@@ -617,31 +896,26 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
                 cells.append(f"{_fmt(r['upright'], 1, 100.0) if r else '-'} / {ref:g}")
             lines.append(f"| {lvl:g} m/s | {SETTINGS[task]} | " + " | ".join(cells) + " |")
     # Sim-to-sim.
-    s2s = pres.get("ours", {}).get("sim2sim", {})
-    if s2s:
+    s2s_rows = _sim2sim_rows(pres)
+    if s2s_rows:
         lines += [
             "",
-            "## Sim-to-sim (Ours)",
+            "## Sim-to-sim",
             "",
-            "The same checkpoint, tasks, robots and seed under a second physics, minus the training physics "
-            "(`train/evaluate.py --physics`): dt0.001 = the paper's 0.001 s x 20 substeps; authors = the "
-            "authors' MuJoCo joint damping 0.01, armature 0.01, friction loss 0.2 and ground friction 0.6.",
+            "The same checkpoints, tasks (v_x, v_y, w), robots and seeds under a second physics "
+            "(`train/evaluate.py --protocol sim2sim --physics`): dt0.001 = the paper's 0.001 s x 20 substeps; "
+            "authors = our robot under the authors' MuJoCo joint model (damping 0.01, armature 0.01, friction loss "
+            "0.2, ground friction 0.6); authors_robot = the authors' own wheeled Go1 MJCF (its masses, inertias and "
+            "joint model; tests/data/authors_wheeled_go1, from xu-yang16/wheeled-quadruped-sim2sim, MIT) under our "
+            "controller; authors_robot_control = their robot under their wheel law (P 2 on the speed target, no "
+            "integral). Each cell: the mean over the three tasks under that physics, then its change from the "
+            "training physics paired by seed (± = half the 95 % interval over seeds).",
             "",
-            "| physics | task | MSE (train) | dMSE | p_cost (train) [W] | dp_cost [W] | dlegs [W] | "
-            "dwheels [W] | dupright [%] |",
-            "|---|---|---|---|---|---|---|---|---|",
+            "| method | physics | MSE | dMSE | p_cost [W] | dp_cost [W] | p_elec [W] | dp_elec [W] | upright [%] "
+            "| dupright [pt] |",
+            "|---|---|---|---|---|---|---|---|---|---|",
+            *s2s_rows,
         ]
-        base = s2s.get("train", {})
-        for phys, tasks in s2s.items():
-            if phys == "train":
-                continue
-            for task, d in tasks.items():
-                b = base.get(task, {})
-                lines.append(
-                    f"| {phys} | {task} | {_fmt(b.get('mse'), 4)} | {_fmt(d['mse'], 4)} | "
-                    f"{_fmt(b.get('mean_p_cost'))} | {_fmt(d['mean_p_cost'])} | {_fmt(d['mean_p_cost_legs'])} "
-                    f"| {_fmt(d['mean_p_cost_wheels'])} | {_fmt(d['upright'], 1, 100.0)} |"
-                )
     # Timeline and energy map.
     if "timeline" in summary["figures"]:
         lines += [
@@ -698,6 +972,25 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
         "",
     ]
     return "\n".join(lines)
+
+
+def regenerate_page(out: str, budget_name: str) -> tuple[str, str]:
+    """``(committed, regenerated)``: the page ``out/RESULTS.md`` as it is, and as ``out/results/<budget>/
+    results.json`` renders it under the commit the page names (the page is a function of the JSON: nothing else is
+    read but the energy map's JSON beside it)."""
+    import re
+
+    from wqwarp.eval.reproduce import Budget
+
+    res_dir = os.path.join(out, "results", budget_name)
+    summary = read_json(os.path.join(res_dir, "results.json"))
+    if summary is None:
+        raise FileNotFoundError(f"{res_dir}/results.json: no results")
+    with open(os.path.join(out, "RESULTS.md"), encoding="utf-8") as f:
+        page = f.read()
+    m = re.search(r"at commit `([0-9a-f]+|unknown)`( \(uncommitted changes\))?", page)
+    git = {"commit": m.group(1) if m else None, "dirty": bool(m and m.group(2))}
+    return page, render_markdown(summary, budget_name, Budget(**summary["sizes"]), res_dir, out, "", git)
 
 
 def load_scalars(run_dir: str) -> dict[str, tuple[list[int], list[float], list[float]]]:

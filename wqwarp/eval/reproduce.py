@@ -12,10 +12,10 @@ Examples::
 
 Stages, in order (``--stages`` picks some): ``train`` (``train/ppo_newton.py`` per preset and seed), then one stage
 per evaluation protocol (``wqwarp.eval.protocols``): ``tracking`` (stand, v_x, v_y, w tasks, power per joint group,
-cost of transport), ``push`` (Table III), ``sim2sim`` (the ``ours`` checkpoints under the paper's dt 0.001 x 20 and
-under the authors' joint model, deltas against the training physics), ``timeline`` (the paper's Fig. 6: one robot,
-stand -> forward -> rotate -> lateral), ``energymap`` (per gait measured and predicted power over a (v_x, v_y) and a
-(v_x, w) grid, and the winning gait), ``nominal`` (the ``ours`` configuration's nominal driving gait with zero
+cost of transport), ``push`` (Table III), ``sim2sim`` (every method's checkpoints under the paper's dt 0.001 x 20,
+the authors' joint model, and the authors' own robot MJCF under our controller and under their wheel law),
+``timeline`` (the paper's Fig. 6: one robot, stand -> forward -> rotate -> lateral), ``energymap`` (per gait
+measured and predicted power over a (v_x, v_y) and a (v_x, w) grid, and the winning gait), ``nominal`` (the ``ours`` configuration's nominal driving gait with zero
 residual on the stand and v_x tasks: the floor its energy targets compare the policy with) and ``report``
 (``RESULTS.md``, ``results.json``, PNGs).
 
@@ -137,6 +137,13 @@ robot (every 7.5 s in 31 s: the issue's "at least 100 robots and 4 pushes each" 
 the paper's scale. The committed cpu reproduction (docs/RESULTS.md) ran 4883 iterations (15.0 M), the budget until
 2026-12-07."""
 
+AUTHORS_ROBOT = "tests/data/authors_wheeled_go1/wheeled_go1.xml"
+"""The paper authors' wheeled Go1 MJCF (MIT; from xu-yang16/wheeled-quadruped-sim2sim, vendored with its licence),
+relative to the repository root: the robot of the sim-to-sim stage's ``authors_robot*`` physics."""
+SIM2SIM_PHYSICS = ("dt0.001", "authors", "authors_robot", "authors_robot_control")
+"""The sim-to-sim stage's physics (``wqwarp.eval.physics``): the paper's step, the authors' joint model on our robot,
+the authors' robot under our controller and under their wheel law."""
+
 EVAL_STAGES: dict[str, Callable[[Budget, str], dict]] = {
     "tracking": lambda b, preset: {
         "preset": preset,
@@ -155,6 +162,8 @@ EVAL_STAGES: dict[str, Callable[[Budget, str], dict]] = {
         "tasks": "vx,vy,wz",
         "num_envs": b.sim2sim_envs,
         "seconds": b.eval_seconds,
+        "physics": ",".join(SIM2SIM_PHYSICS),
+        "robot": repo_path(AUTHORS_ROBOT),
     },
     "timeline": lambda b, preset: {"segments": fig6_segments(b.timeline_seconds), "robots": 1},
     "energymap": lambda b, preset: {"seconds": b.map_seconds, "grid": b.map_grid},
@@ -174,9 +183,10 @@ STAGE_PROTOCOL = {"nominal": "tracking"}
 with every action 0 and the driving gait forced (the nominal gait alone: the floor of the energy targets)."""
 STAGES = ("train", *EVAL_STAGES, "report")
 
-PREDICTIVE_ONLY = ("sim2sim", "timeline", "energymap", "nominal")
-"""Stages run only for presets with ``Preset.selection_studies`` (the sim-to-sim check, the figures of the gait
-selection, and the nominal gait the targets compare the policy with)."""
+PREDICTIVE_ONLY = ("timeline", "energymap", "nominal")
+"""Stages run only for presets with ``Preset.selection_studies`` (the figures of the gait selection, and the nominal
+gait the targets compare the policy with); sim-to-sim runs for every method (issue 49: the authors' robot for
+each)."""
 
 
 def run_dir(work: str, preset: str, seed: int) -> str:

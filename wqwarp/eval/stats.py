@@ -78,3 +78,28 @@ def verdict(ci: Sequence[float] | None, bound: float, claim: Literal["below", "a
     if claim == "above":
         return "holds" if lo > bound else "does not hold" if hi <= bound else "undecided"
     raise ValueError(f"claim must be 'below' or 'above', not {claim!r}")
+
+
+def per_seed_stat(pairs: Sequence[tuple[int | str, float | None]]) -> dict | None:
+    """:func:`mean_ci` of ``(seed, value)`` pairs with the values kept by seed (``per_seed``, keys the seeds as
+    strings, as JSON has them), so that two methods are paired seed by seed later; None without a value."""
+    kept = {str(s): float(v) for s, v in pairs if v is not None}
+    out = mean_ci(list(kept.values()))
+    return None if out is None else {**out, "per_seed": kept}
+
+
+def paired(a: dict | None, b: dict | None) -> tuple[list[str], list[float], list[float]]:
+    """The seeds two :func:`per_seed_stat` results share, with their values in the same order."""
+    if not a or not b:
+        return [], [], []
+    seeds = [s for s in a["per_seed"] if s in b["per_seed"]]
+    return seeds, [a["per_seed"][s] for s in seeds], [b["per_seed"][s] for s in seeds]
+
+
+def diff_ci(a: Sequence[float], b: Sequence[float]) -> dict | None:
+    """The difference a - b of two methods trained on the same seeds (``a[i]``, ``b[i]``: seed i): :func:`mean_ci`
+    of the per-seed differences, with them as ``per_seed``; None without a pair. For shares near a bound (100 %
+    upright) where a ratio says little."""
+    d = [float(x) - float(y) for x, y in zip(a, b, strict=True) if x is not None and y is not None]
+    out = mean_ci(d)
+    return None if out is None else {**out, "per_seed": d}
