@@ -10,13 +10,13 @@ Examples::
     python train/reproduce.py --budget gpu --device cuda:0        # the paper's 4096 robots x 4000 iterations
     python train/reproduce.py --budget cpu --stages report        # rebuild the page from finished stages
 
-Stages, in order (``--stages`` picks some): ``train`` (``train/ppo_newton.py`` per preset and seed), then one stage
-per evaluation protocol (``wqwarp.eval.protocols``): ``tracking`` (stand, v_x, v_y, w tasks, power per joint group,
-cost of transport), ``push`` (Table III), ``sim2sim`` (every method's checkpoints under the paper's dt 0.001 x 20,
-the authors' joint model, and the authors' own robot MJCF under our controller and under their wheel law),
-``timeline`` (the paper's Fig. 6: one robot, stand -> forward -> rotate -> lateral), ``energymap`` (per gait
-measured and predicted power over a (v_x, v_y) and a (v_x, w) grid, and the winning gait), ``nominal`` (the ``ours`` configuration's nominal driving gait with zero
-residual on the stand and v_x tasks: the floor its energy targets compare the policy with) and ``report``
+Stages, in order (``--stages`` picks some): ``train`` (``train/ppo_newton.py`` per preset and seed), then one stage per
+evaluation protocol (``wqwarp.eval.protocols``): ``tracking`` (stand, v_x, v_y, w tasks, power per joint group, cost of
+transport), ``push`` (Table III), ``sim2sim`` (every method's checkpoints under the paper's dt 0.001 x 20, the authors'
+joint model, and the authors' own robot MJCF under our controller and under their wheel law), ``timeline`` (the paper's
+Fig. 6: one robot, stand -> forward -> rotate -> lateral), ``energymap`` (per gait measured and predicted power over a
+(v_x, v_y) and a (v_x, w) grid, and the winning gait), ``nominal`` (the ``ours`` configuration's nominal driving gait
+with zero residual on the stand and v_x tasks: the floor its energy targets compare the policy with) and ``report``
 (``RESULTS.md``, ``results.json``, PNGs).
 
 Training runs ``train/ppo_newton.py`` in a child process (its progress on a terminal read from the run's
