@@ -152,7 +152,9 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     assert "push pmtg seed 1" in capsys.readouterr().err
     page = (out / "RESULTS.md").read_text()
     assert "push pmtg seed 1" in page  # listed as not run, and its training without its final checkpoint as such
-    assert "| PMTG | 1 | in progress: iteration 2 of 2 | - |" in page and "| Ours | 1 | " in page
+    assert "| PMTG | 1 | in progress: iteration 2 of 2 | - | - | - |" in page and "| Ours | 1 | " in page
+    ours_row = next(line for line in page.splitlines() if line.startswith("| Ours | 1 | "))
+    assert ours_row.endswith(f"| {summary['training']['ours']['1']['commit'][:12]} | no |")  # uninterrupted
     assert "in_progress" not in _load(res / "results.json")["training"]["ours"]["1"]
     assert command.main(["--presets", "nope"]) == 2
 

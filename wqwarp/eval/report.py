@@ -7,8 +7,10 @@ own numbers beside ours where the paper gives numbers (Table III). Nothing is si
 
 from __future__ import annotations
 
+import glob
 import json
 import os
+import re
 import shutil
 import statistics
 
@@ -189,12 +191,16 @@ def _train_info(work: str, preset: str, seed: int, done: bool) -> dict:
     cfg = read_json(os.path.join(d, "config.json"))
     if cfg:
         info["args"] = cfg.get("args")
+        info["commit"] = (cfg.get("git") or {}).get("commit")  # None for runs before it was recorded
+    resumed = [re.fullmatch(r"config_resume_(\d+)\.json", os.path.basename(f)) for f in glob.glob(f"{d}/config_*.json")]
+    info["resumed_from"] = sorted(int(m.group(1)) for m in resumed if m)  # each resumption's checkpoint iteration
     rows = read_metrics(d)  # one row per iteration, over the run and its resumptions
     if rows:
         info["wall_time_s"] = sum(r.get("wall_s") or 0.0 for r in rows)
         info["final_mean_reward"] = rows[-1].get("mean_reward")
     elif summary := read_json(os.path.join(d, "train_info.json")):  # imported from an earlier reproduction's report
-        info.update({k: summary[k] for k in ("wall_time_s", "final_mean_reward") if k in summary})
+        keys = ("wall_time_s", "final_mean_reward", "commit", "resumed_from")
+        info.update({k: summary[k] for k in keys if k in summary})
     return info
 
 
@@ -948,20 +954,28 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
             f"![energy map]({rel}/{summary['figures']['energymap']})",
         ]
     # Training.
-    lines += ["", "## Training", "", "| method | seed | wall time | final mean episode reward |", "|---|---|---|---|"]
+    lines += [
+        "",
+        "## Training",
+        "",
+        "| method | seed | wall time | final mean episode reward | commit | resumed from |",
+        "|---|---|---|---|---|---|",
+    ]
     for p, per_seed in summary["training"].items():
         for s, info in per_seed.items():
             if "in_progress" in info:
                 lines.append(
                     f"| {PAPER_NAMES[p]} | {s} | in progress: iteration {info['in_progress']} of "
-                    f"{budget.iterations} | - |"
+                    f"{budget.iterations} | - | - | - |"
                 )
                 continue
             wt = info.get("wall_time_s")
             rw = info.get("final_mean_reward")
+            resumed = info.get("resumed_from")
             lines.append(
                 f"| {PAPER_NAMES[p]} | {s} | {f'{wt / 60:.0f} min' if wt else '-'} | "
-                f"{f'{rw:.1f}' if rw is not None else '-'} |"
+                f"{f'{rw:.1f}' if rw is not None else '-'} | {(info.get('commit') or 'not recorded')[:12]} | "
+                f"{', '.join(map(str, resumed)) if resumed else ('no' if resumed is not None else 'not recorded')} |"
             )
     train_s = sum(i.get("wall_time_s") or 0.0 for per in summary["training"].values() for i in per.values())
     eval_s = summary.get("evaluation_wall_time_s", 0.0)
@@ -978,8 +992,6 @@ def regenerate_page(out: str, budget_name: str) -> tuple[str, str]:
     """``(committed, regenerated)``: the page ``out/RESULTS.md`` as it is, and as ``out/results/<budget>/
     results.json`` renders it under the commit the page names (the page is a function of the JSON: nothing else is
     read but the energy map's JSON beside it)."""
-    import re
-
     from wqwarp.eval.reproduce import Budget
 
     res_dir = os.path.join(out, "results", budget_name)
