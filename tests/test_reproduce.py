@@ -410,3 +410,50 @@ def test_the_sim2sim_table_pairs_each_physics_with_the_training_one_by_seed():
         "| Ours | authors_robot | 0.0200 ± 0.0000 | 0.0100 ± 0.0000 | 26.0 ± 12.7 | 5.0 ± 0.0 | - | - | "
         "100.0 ± 0.0 | 0.0 ± 0.0 |"
     )
+
+
+def test_the_readme_status_table_is_built_from_the_results_and_replaces_only_its_block(tmp_path):
+    """The table quotes the page's numbers with their intervals and the claims' verdicts; a method not run reads
+    "not run yet"; ``--write`` replaces only the block between the markers, ``--check`` fails on a stale table, and
+    a results.json from before the claims is refused with exit 2."""
+    from wqwarp.cli import readme_status
+    from wqwarp.eval.report import _stat, paper_claims
+    from wqwarp.eval.status import BEGIN, END, replace_block, status_table
+
+    def st(*values):
+        return _stat(list(zip((11, 12, 13), values, strict=True)))
+
+    def block(p, mse):
+        out = {t: {"mean_p_cost": st(p, p + 2, p + 1), "mse": st(mse, mse, mse)} for t in MOVING_TASKS}
+        for t in MOVING_TASKS:
+            out[t] |= {"upright": st(1.0, 1.0, 1.0), "legged_share": st(0.9, 0.8, 0.95)}
+        out["vx"]["legged_share"] = st(0.1, 0.2, 0.0)
+        return out
+
+    summary = {
+        "seeds": [11, 12, 13],
+        "presets": {"ours": {"tracking": block(10.0, 0.001)}, "no_predictor": {"tracking": block(20.0, 0.002)}},
+    }
+    summary["claims"] = paper_claims(summary)
+    table = status_table(summary)
+    assert table.startswith(BEGIN) and table.endswith(END)
+    assert "3 training seeds (11, 12, 13)" in table
+    assert "v_x task 0.50x [" in table and "**holds**" in table  # 10-12 W against 20-22 W, seed by seed
+    assert "driving 90 ± 25 % of the v_x task" in table
+    assert "| push recovery (Table III) | not run yet |" in table
+    readme = tmp_path / "README.md"
+    readme.write_text(f"# title\n\n{BEGIN}\nold\n{END}\n\nrest\n")
+    assert replace_block(readme.read_text(), table) == f"# title\n\n{table}\n\nrest\n"
+    res = tmp_path / "results.json"
+    res.write_text(json.dumps(summary))
+    argv = ["--results", str(res), "--readme", str(readme)]
+    assert readme_status.main([*argv, "--check"]) == 1
+    assert readme_status.main([*argv, "--write"]) == 0 and readme_status.main([*argv, "--check"]) == 0
+    assert readme.read_text() == f"# title\n\n{table}\n\nrest\n"
+    res.write_text(json.dumps({k: v for k, v in summary.items() if k != "claims"}))
+    assert readme_status.main([*argv, "--check"]) == 2
+    with pytest.raises(ValueError, match="no status block"):
+        replace_block("no markers", table)
+
+
+MOVING_TASKS = ("vx", "vy", "wz")

@@ -447,10 +447,10 @@ def paper_claims(summary: dict) -> list[dict]:
     track = {p: pres[p]["tracking"] for p in have}
     claims = []
 
-    def claim(text: str, measure: str, bound: float, side: str, cells: list[tuple]) -> None:
+    def claim(key: str, text: str, measure: str, bound: float, side: str, cells: list[tuple]) -> None:
         made = [_cell(label, kind, a, b, bound, side) for label, kind, a, b in cells]
         if any(c["n"] for c in made):
-            claims.append({"claim": text, "measure": measure, "bound": bound, "side": side, "cells": made})
+            claims.append({"id": key, "claim": text, "measure": measure, "bound": bound, "side": side, "cells": made})
 
     if "ours" in track and "no_predictor" in track:
         o, f = track["ours"], track["no_predictor"]
@@ -461,6 +461,7 @@ def paper_claims(summary: dict) -> list[dict]:
             ]
             cells.append(("three moving tasks", "ratio", _over_tasks(o, key), _over_tasks(f, key)))
             claim(
+                f"fixed_gait_{name}",
                 "up to 35 % less energy than a fixed gait (here the fixed trot, Ours w/o switching)",
                 f"Ours / fixed trot, {name}",
                 1.0,
@@ -472,6 +473,7 @@ def paper_claims(summary: dict) -> list[dict]:
             for t in MOVING
         ]
         claim(
+            "comparable_tracking",
             "... while maintaining comparable velocity tracking",
             "Ours / fixed trot, MSE (within 10 %)",
             1.1,
@@ -491,6 +493,7 @@ def paper_claims(summary: dict) -> list[dict]:
             if q != "ours"
         ]
         claim(
+            "tracking_all_tasks",
             "our framework consistently outperforms other methods in all tasks (tracking)",
             "Ours / other, MSE",
             1.0,
@@ -504,6 +507,7 @@ def paper_claims(summary: dict) -> list[dict]:
                 if q != "ours"
             ]
             claim(
+                f"lowest_power_{name}",
                 "superior energy efficiency (lowest power over the three tasks)",
                 f"Ours / other, {name}",
                 1.0,
@@ -522,7 +526,12 @@ def paper_claims(summary: dict) -> list[dict]:
             if q != "pmtg"
         ]
         claim(
-            "PMTG exhibits the highest energy demand", "PMTG / other, p_cost over the three tasks", 1.0, "above", cells
+            "pmtg_highest",
+            "PMTG exhibits the highest energy demand",
+            "PMTG / other, p_cost over the three tasks",
+            1.0,
+            "above",
+            cells,
         )
     cells = [
         (
@@ -534,6 +543,7 @@ def paper_claims(summary: dict) -> list[dict]:
         for q in have
     ]
     claim(
+        "forward_cheapest",
         "energy consumption is minimized when only the forward velocity command is activated",
         "p_cost on v_x / the cheaper of v_y and w",
         1.0,
@@ -544,6 +554,7 @@ def paper_claims(summary: dict) -> list[dict]:
         o = track["ours"]
         cells = [(f"{PLAIN_NAMES[t]} task", "mean", (o.get(t) or {}).get("legged_share"), None) for t in ("vy", "wz")]
         claim(
+            "legged_lateral",
             "for yaw rate and lateral velocity the robot switches to a trotting gait",
             "Ours, share of robot-time in a legged gait",
             0.5,
@@ -559,6 +570,7 @@ def paper_claims(summary: dict) -> list[dict]:
             )
         ]
         claim(
+            "stand_lowest",
             "the lowest energy consumption is recorded during stationary tasks",
             "Ours, p_cost standing / cheapest moving task",
             1.0,
@@ -577,6 +589,7 @@ def paper_claims(summary: dict) -> list[dict]:
 
             cells = [(f"{lvl:g} m/s vs {PAPER_NAMES[q]}", "diff", share("ours"), share(q)) for q in push if q != "ours"]
             claim(
+                f"push_{lvl:g}",
                 "our framework significantly outperforms other methods across all scenarios (push recovery)",
                 "Ours - other, recovered share over the four settings",
                 0.0,
