@@ -28,6 +28,7 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
         "RESULTS.md",
         "results/smoke/results.json",
         "results/smoke/tracking_power.png",
+        "results/smoke/claims.png",
         "results/smoke/ours_s1_timeline.png",
         "results/smoke/ours_s1_energymap.png",
     ):

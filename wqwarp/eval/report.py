@@ -177,6 +177,36 @@ def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "v
     save_figure(fig, path, dpi=100)
 
 
+def draw_claims(claims: list[dict], path: str) -> None:
+    """The ratio claims of :func:`paper_claims` as a forest plot: one row per comparison, the estimate with its 95 %
+    interval over seeds (a bar; none at one seed), each seed's ratio as a dot, the claim's bound as a red tick, on a
+    log axis; green where the claim holds, red where it does not, grey where undecided."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [(c, cell) for c in claims for cell in c["cells"] if cell["kind"] == "ratio" and cell["estimate"]]
+    colour = {"holds": "tab:green", "does not hold": "tab:red"}
+    fig, ax = plt.subplots(figsize=(9, 0.28 * len(rows) + 1.2))
+    for y, (c, cell) in enumerate(reversed(rows)):
+        col = colour.get(cell["verdict"], "0.5")
+        if cell["ci95"]:
+            ax.plot(cell["ci95"], [y, y], color=col, lw=2)
+        ax.plot([cell["estimate"]], [y], "o", color=col, ms=5)
+        ax.plot(list(cell.get("per_seed", {}).values()), [y] * len(cell.get("per_seed", {})), ".", color="k", ms=3)
+        ax.plot([c["bound"]] * 2, [y - 0.4, y + 0.4], color="tab:red", lw=1)
+    ax.set_yticks(range(len(rows)))
+    ax.set_yticklabels([f"{c['measure']}: {cell['label']}" for c, cell in reversed(rows)], fontsize=7)
+    ax.set_xscale("log")
+    ax.set_xlabel("ratio (dot: estimate, bar: 95 % interval over seeds, black: each seed; red tick: the claim's bound)")
+    ax.grid(axis="x", alpha=0.3)
+    fig.tight_layout()
+    from wqwarp.utils.provenance import save_figure
+
+    save_figure(fig, path, dpi=100)
+
+
 def _train_info(work: str, preset: str, seed: int, done: bool) -> dict:
     """The training of ``preset`` / ``seed`` under ``work``: its arguments, wall time and final mean episode reward
     when it is ``done``; otherwise ``{"in_progress": k}`` with the last iteration k written, or {} before the
@@ -303,6 +333,9 @@ def write_report(
         **data,
     }
     summary["claims"] = paper_claims(summary)
+    if any(cell["kind"] == "ratio" and cell["estimate"] for c in summary["claims"] for cell in c["cells"]):
+        draw_claims(summary["claims"], os.path.join(res_dir, "claims.png"))
+        figures["claims"] = "claims.png"
     write_result_json(os.path.join(res_dir, "results.json"), summary)
     md = render_markdown(summary, budget_name, budget, res_dir, out, work, git)
     tmp = os.path.join(out, "RESULTS.md.tmp")
@@ -831,7 +864,7 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
         "robots, falls beside. p_cost = sum |tau| |qd| over the 16 joints; CoT = p_cost / (m g mean speed); p_elec = "
         "the battery's power under the motor model of wqwarp/robot/motors.py (copper losses included; '-' in results "
         "before it existed). "
-        "Mean ± standard deviation over seeds where there are several.",
+        "Over several seeds: the mean ± half its 95 % interval (Student t, the seed the unit).",
         "",
     ]
     if "tracking_power" in summary["figures"]:
@@ -896,13 +929,16 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
             "",
             *_claim_rows(summary["claims"]),
         ]
+        if "claims" in summary["figures"]:
+            lines += ["", f"![the ratio claims with their intervals]({rel}/{summary['figures']['claims']})"]
     # Table III.
     lines += [
         "",
         "## Push recovery (the paper's Table III)",
         "",
         "Random velocity impulses up to the maximum along the trunk's x and y; a robot **recovers** if its "
-        "trunk never touches the ground during the run. Each cell: this reproduction / the paper [%].",
+        "trunk never touches the ground during the run. Each cell: this reproduction (over several seeds the mean ± "
+        "half its 95 % interval) / the paper [%].",
         "",
         "| max push | setting | " + " | ".join(PAPER_NAMES[p] for p in TABLE3_ORDER) + " |",
         "|---|---|" + "---|" * len(TABLE3_ORDER),
