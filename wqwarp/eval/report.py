@@ -1012,6 +1012,9 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     ]
     for p, per_seed in summary["training"].items():
         for s, info in per_seed.items():
+            if not info:  # no run folder, or no iteration written yet
+                lines.append(f"| {PAPER_NAMES[p]} | {s} | not trained yet | - | - | - |")
+                continue
             if "in_progress" in info:
                 lines.append(
                     f"| {PAPER_NAMES[p]} | {s} | in progress: iteration {info['in_progress']} of "
