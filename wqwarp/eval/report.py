@@ -168,7 +168,7 @@ def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "v
     for ax, title in zip(axes, (f"tracking MSE of the task's axis{bars}", f"mean power p_cost [W]{bars}"), strict=True):
         ax.set_xticks(x + width * (len(runs) - 1) / 2)
         ax.set_xticklabels([f"{TASK_NAMES[t]} task" for t in tasks])
-        ax.set_title(title)
+        ax.set_title(title, fontsize=9)
         ax.grid(axis="y", alpha=0.3)
     axes[0].legend(fontsize=8)
     fig.tight_layout()
