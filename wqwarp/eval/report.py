@@ -199,7 +199,7 @@ def draw_claims(claims: list[dict], path: str) -> None:
     ax.set_yticks(range(len(rows)))
     ax.set_yticklabels([f"{c['measure']}: {cell['label']}" for c, cell in reversed(rows)], fontsize=7)
     ax.set_xscale("log")
-    ax.set_xlabel("ratio (dot: estimate, bar: 95 % interval over seeds, black: each seed; red tick: the claim's bound)")
+    ax.set_xlabel("ratio, log scale (dot: estimate; bar: 95 % interval; black: seeds; red: bound)", fontsize=8)
     ax.grid(axis="x", alpha=0.3)
     fig.tight_layout()
     from wqwarp.utils.provenance import save_figure
@@ -646,10 +646,13 @@ def _claim_rows(claims: list[dict]) -> list[str]:
         "| paper's claim | measure | comparison | estimate [95 % interval] | seeds | verdict |",
         "|---|---|---|---|---|---|",
     ]
+    previous = None
     for c in claims:
         share = c["cells"][0]["kind"] == "mean"  # a mean claim here is a share of robot-time
         bound = _claim_value(c["bound"], c["cells"][0]["kind"], share) if c["bound"] else "0"
-        head = [c["claim"], f"{c['measure']} {'<' if c['side'] == 'below' else '>'} {bound}"]
+        same = c["claim"] == previous  # the same words measured another way: said once
+        head = ["" if same else c["claim"], f"{c['measure']} {'<' if c['side'] == 'below' else '>'} {bound}"]
+        previous = c["claim"]
         for cell in c["cells"]:
             est, ci = "-", cell["ci95"]
             if cell["estimate"] is not None:
@@ -809,6 +812,8 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     tasks = summary.get("tasks") or pres
     default = list(pres) == [t for t in TASKS if "-" not in t] and list(tasks) == list(pres)
     tasks_flag = "" if default else f" --tasks {','.join(tasks)}"
+    if summary["seeds"] != [1]:
+        tasks_flag += f" --seeds {','.join(map(str, summary['seeds']))}"
     trained_as = summary.get("trained_as") or ([f"--profile {x}" for x in summary.get("profiles", [])])
     lines = [
         f"# Results: reproduction of the paper's evaluation ({budget_name} budget)",
