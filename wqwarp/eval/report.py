@@ -654,16 +654,22 @@ def _claim_rows(claims: list[dict]) -> list[str]:
         head = ["" if same else c["claim"], f"{c['measure']} {'<' if c['side'] == 'below' else '>'} {bound}"]
         previous = c["claim"]
         for cell in c["cells"]:
-            est, ci = "-", cell["ci95"]
-            if cell["estimate"] is not None:
-                est = _claim_value(cell["estimate"], cell["kind"], share)
-                if ci:
-                    est += f" [{_claim_value(ci[0], cell['kind'], share)}, {_claim_value(ci[1], cell['kind'], share)}]"
-            n = cell["n"]
-            verdict = cell["verdict"] if cell["verdict"] != "undecided" else f"undecided at {n} seed{'s' * (n != 1)}"
-            rows.append(f"| {head[0]} | {head[1]} | {cell['label']} | {est} | {n} | {verdict} |")
+            est, verdict = cell_text(cell, share)
+            rows.append(f"| {head[0]} | {head[1]} | {cell['label']} | {est} | {cell['n']} | {verdict} |")
             head = ["", ""]
     return rows
+
+
+def cell_text(cell: dict, share: bool) -> tuple[str, str]:
+    """``(estimate [interval], verdict)`` of one comparison of a claim as the page writes them ("-" without data;
+    "undecided at n seeds")."""
+    est, ci = "-", cell["ci95"]
+    if cell["estimate"] is not None:
+        est = _claim_value(cell["estimate"], cell["kind"], share)
+        if ci:
+            est += f" [{_claim_value(ci[0], cell['kind'], share)}, {_claim_value(ci[1], cell['kind'], share)}]"
+    n = cell["n"]
+    return est, cell["verdict"] if cell["verdict"] != "undecided" else f"undecided at {n} seed{'s' * (n != 1)}"
 
 
 LEGGED = ("trotting", "walking")

@@ -6,7 +6,7 @@ run yet"."""
 
 from __future__ import annotations
 
-from wqwarp.eval.report import MOVING, PLAIN_NAMES, _claim_value, _fmt, _over_tasks
+from wqwarp.eval.report import MOVING, PLAIN_NAMES, _fmt, _over_tasks, cell_text
 from wqwarp.rl.presets import PAPER_NAMES
 
 BEGIN = "<!-- status table: built by tools/readme_status.py from docs/results/cpu/results.json; do not edit -->"
@@ -34,16 +34,8 @@ def _cells(summary: dict, key: str, labels: tuple[str, ...] | None = None) -> st
     for cell in claim["cells"]:
         if labels is not None and cell["label"] not in labels:
             continue
-        if cell["estimate"] is None:
-            parts.append(f"{cell['label']} -")
-            continue
-        est = _claim_value(cell["estimate"], cell["kind"], share)
-        ci = cell["ci95"]
-        if ci:
-            est += f" [{_claim_value(ci[0], cell['kind'], share)}, {_claim_value(ci[1], cell['kind'], share)}]"
-        n = cell["n"]
-        verdict = cell["verdict"] if cell["verdict"] != "undecided" else f"undecided at {n} seed{'s' * (n != 1)}"
-        parts.append(f"{cell['label']} {est}: **{verdict}**")
+        est, verdict = cell_text(cell, share)
+        parts.append(f"{cell['label']} {est}" + (f": **{verdict}**" if cell["estimate"] is not None else ""))
     return "; ".join(parts) or NOT_RUN
 
 
