@@ -438,7 +438,7 @@ def test_the_readme_status_table_is_built_from_the_results_and_replaces_only_its
     summary["claims"] = paper_claims(summary)
     table = status_table(summary)
     assert table.startswith(BEGIN) and table.endswith(END)
-    assert "3 training seeds (11, 12, 13)" in table
+    assert "on training seeds 11, 12, 13, none of which chose a lever" in table
     assert "v_x task 0.50x [" in table and "**holds**" in table  # 10-12 W against 20-22 W, seed by seed
     assert "driving 90 ± 25 % of the v_x task" in table
     assert "| push recovery (Table III) | not run yet |" in table

@@ -637,7 +637,9 @@ def _claim_value(v: float, kind: str, share: bool) -> str:
     ``+3.0 pt``."""
     if kind == "diff":
         return f"{100 * v:+.1f} pt"
-    return f"{100 * v:.0f} %" if share else f"{v:.2f}x"
+    if share:
+        return f"{100 * v:.0f} %"
+    return f"{v:.2f}x" if 0.01 <= v < 10 else f"{v:.2g}x"  # the wide intervals of two seeds in two figures
 
 
 def _claim_rows(claims: list[dict]) -> list[str]:
