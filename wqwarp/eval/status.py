@@ -54,7 +54,8 @@ def status_table(summary: dict) -> str:
     claims_link = f"[claims]({PAGE}#{_anchor(CLAIMS_HEADING)})"
     fig5 = f"[Fig. 5]({PAGE}#{_anchor(TRACKING_HEADING)})"
     table3 = f"[Table III]({PAGE}#{_anchor(PUSH_HEADING)})"
-    s2s_link = f"[sim-to-sim]({PAGE}#{_anchor(S2S_HEADING)})"
+    has_s2s = any(e.get("sim2sim") for e in pres.values())  # the page has the section only then
+    s2s_link = f"[sim-to-sim]({PAGE}#{_anchor(S2S_HEADING)})" if has_s2s else f"[{PAGE}]({PAGE})"
 
     def metric(block: dict, task: str, m: str, digits: int, scale: float = 1.0) -> str:
         return _fmt((block.get(task) or {}).get(m), digits, scale)
