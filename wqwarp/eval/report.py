@@ -932,8 +932,9 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
             "",
             "## The paper's claims, judged over seeds",
             "",
-            f"Each claim of the paper's simulation results, measured on {n} training seed{'s' * (n != 1)} "
-            "(`wqwarp/eval/stats.py`): the seed is the unit (robots of one policy are not independent samples); two "
+            f"Each claim of the paper's simulation results, measured over the training seed{'s' * (n != 1)} "
+            f"{', '.join(map(str, summary['seeds']))} (column seeds: how many a comparison rests on; "
+            "`wqwarp/eval/stats.py`): the seed is the unit (robots of one policy are not independent samples); two "
             "methods are compared seed by seed, a ratio by the geometric mean of the seeds' ratios with the Student-t "
             "95 % interval of their logarithms, a difference by the t interval of the seeds' differences. A claim "
             "**holds** when its whole interval is on the claimed side of the bound, **does not hold** when it is "
