@@ -14,6 +14,7 @@ import re
 import shutil
 import statistics
 
+from wqwarp.eval.stats import per_seed_stat
 from wqwarp.rl.presets import PAPER_NAMES
 from wqwarp.rl.tasks import TASKS
 
@@ -63,12 +64,9 @@ def read_json(path: str) -> dict | None:
         return json.load(f)
 
 
-def _stat(pairs: list[tuple[int, float | None]]) -> dict | None:
-    """Mean, sample standard deviation, count, 95 % interval over seeds and the value of each seed, of
-    ``(seed, value)`` pairs (:func:`wqwarp.eval.stats.per_seed_stat`); None without a value."""
-    from wqwarp.eval.stats import per_seed_stat
-
-    return per_seed_stat(pairs)
+_stat = per_seed_stat
+"""Mean, sample standard deviation, count, 95 % interval over seeds and the value of each seed, of ``(seed, value)``
+pairs; None without a value."""
 
 
 def _fmt(s: dict | None, digits: int = 1, scale: float = 1.0) -> str:
@@ -434,30 +432,20 @@ def _cell(label: str, kind: str, a, b, bound: float, side: str) -> dict:
     """One comparison of a claim: ``kind`` ratio (``a`` / ``b`` paired by seed, :func:`wqwarp.eval.stats.ratio_ci`),
     diff (``a - b`` paired by seed) or mean (of ``a`` alone); ``a``, ``b`` :func:`_stat` dicts. The verdict of
     "the estimate is ``side`` ``bound``" from its 95 % interval (:func:`wqwarp.eval.stats.verdict`)."""
-    from wqwarp.eval.stats import diff_ci, mean_ci, paired, ratio_ci, verdict
+    from wqwarp.eval.stats import diff_ci, paired, ratio_ci, verdict
 
     est = None
     if kind == "mean" and a:
-        m = mean_ci(list(a["per_seed"].values()))
-        est = {"estimate": m["mean"], "ci95": m["ci95"], "n": m["n"], "per_seed": a["per_seed"]}
+        est = {"estimate": a["mean"], "ci95": a["ci95"], "n": a["n"], "per_seed": a["per_seed"]}
     elif kind in ("ratio", "diff"):
         seeds, x, y = paired(a, b)
-        if seeds and kind == "ratio" and min(x + y) > 0:
-            r = ratio_ci(x, y)
-            est = {"estimate": r["ratio"], "ci95": r["ci95"], "n": r["n"]}
+        if seeds and (kind == "diff" or min(x + y) > 0):
+            r = ratio_ci(x, y) if kind == "ratio" else diff_ci(x, y)
+            est = {"estimate": r["ratio" if kind == "ratio" else "mean"], "ci95": r["ci95"], "n": r["n"]}
             est["per_seed"] = dict(zip(seeds, r["per_seed"], strict=True))
-        elif seeds and kind == "diff":
-            d = diff_ci(x, y)
-            est = {"estimate": d["mean"], "ci95": d["ci95"], "n": d["n"]}
-            est["per_seed"] = dict(zip(seeds, d["per_seed"], strict=True))
     if est is None:
         return {"label": label, "kind": kind, "estimate": None, "ci95": None, "n": 0, "verdict": "no data"}
     return {"label": label, "kind": kind, **est, "verdict": verdict(est["ci95"], bound, side)}
-
-
-def _per_seed(values: dict[str, list[float | None]], reduce) -> dict | None:
-    """:func:`_stat` of ``reduce`` over each seed's values (seeds missing one of them left out)."""
-    return _stat([(s, reduce(v)) for s, v in values.items() if v and None not in v])
 
 
 def _over_tasks(block: dict, metric: str, tasks=MOVING, reduce=statistics.fmean) -> dict | None:
@@ -466,8 +454,8 @@ def _over_tasks(block: dict, metric: str, tasks=MOVING, reduce=statistics.fmean)
     stats = [(block.get(t) or {}).get(metric) for t in tasks]
     if not all(stats):
         return None
-    seeds = set.intersection(*(set(st["per_seed"]) for st in stats))
-    return _per_seed({sd: [st["per_seed"][sd] for st in stats] for sd in sorted(seeds, key=int)}, reduce)
+    seeds = sorted(set.intersection(*(set(st["per_seed"]) for st in stats)), key=int)
+    return _stat([(sd, reduce([st["per_seed"][sd] for st in stats])) for sd in seeds])
 
 
 def paper_claims(summary: dict) -> list[dict]:
