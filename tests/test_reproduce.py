@@ -11,6 +11,7 @@ import pytest
 
 from wqwarp.cli import reproduce as command
 from wqwarp.eval import reproduce
+from wqwarp.eval.stats import per_seed_stat
 from wqwarp.rl.tasks import TASKS
 
 
@@ -340,11 +341,11 @@ def test_report_judges_the_papers_claims_from_intervals_over_seeds():
     [0.5, 0.5]); at 1, 1.2 and 1 times on v_y the interval straddles 1 (undecided at 3 seeds); twice on w does not
     hold. The three-task mean is each seed's mean first (ratios 0.82, 0.90, 0.86 here). A seed one method lacks is
     left out of the pair; one seed is always undecided. Push recovery compares shares by differences in points."""
-    from wqwarp.eval.report import _claim_rows, _stat, paper_claims
+    from wqwarp.eval.report import _claim_rows, paper_claims
     from wqwarp.eval.stats import ratio_ci
 
     def st(*values, seeds=(11, 12, 13)):
-        return _stat(list(zip(seeds, values, strict=True)))
+        return per_seed_stat(list(zip(seeds, values, strict=True)))
 
     ours = {
         "vx": {"mean_p_cost": st(10.0, 12.0, 11.0), "mse": st(0.001, 0.001, 0.001)},
@@ -399,11 +400,15 @@ def test_report_judges_the_papers_claims_from_intervals_over_seeds():
 def test_the_sim2sim_table_pairs_each_physics_with_the_training_one_by_seed():
     """Each cell is the mean over the three tasks per seed, its change the paired difference: MSE 0.01 on every
     task under training physics, 0.02 on the authors' robot, on two seeds -> dMSE +0.0100 ± 0.0000."""
-    from wqwarp.eval.report import _sim2sim_rows, _stat
+    from wqwarp.eval.report import _sim2sim_rows
 
     def block(mse, p):
-        one = {"mse": _stat([(1, mse), (2, mse)]), "mean_p_cost": _stat([(1, p), (2, p + 2)]), "mean_p_elec": None}
-        return {t: {**one, "upright": _stat([(1, 1.0), (2, 1.0)])} for t in ("vx", "vy", "wz")}
+        one = {
+            "mse": per_seed_stat([(1, mse), (2, mse)]),
+            "mean_p_cost": per_seed_stat([(1, p), (2, p + 2)]),
+            "mean_p_elec": None,
+        }
+        return {t: {**one, "upright": per_seed_stat([(1, 1.0), (2, 1.0)])} for t in ("vx", "vy", "wz")}
 
     pres = {"ours": {"sim2sim": {"train": block(0.01, 20.0), "authors_robot": block(0.02, 25.0)}}}
     (row,) = _sim2sim_rows(pres)
@@ -418,11 +423,11 @@ def test_the_readme_status_table_is_built_from_the_results_and_replaces_only_its
     "not run yet"; ``--write`` replaces only the block between the markers, ``--check`` fails on a stale table, and
     a results.json from before the claims is refused with exit 2."""
     from wqwarp.cli import readme_status
-    from wqwarp.eval.report import _stat, paper_claims
+    from wqwarp.eval.report import paper_claims
     from wqwarp.eval.status import BEGIN, END, replace_block, status_table
 
     def st(*values):
-        return _stat(list(zip((11, 12, 13), values, strict=True)))
+        return per_seed_stat(list(zip((11, 12, 13), values, strict=True)))
 
     def block(p, mse):
         out = {t: {"mean_p_cost": st(p, p + 2, p + 1), "mse": st(mse, mse, mse)} for t in MOVING_TASKS}

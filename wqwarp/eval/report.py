@@ -14,7 +14,7 @@ import re
 import shutil
 import statistics
 
-from wqwarp.eval.stats import per_seed_stat
+from wqwarp.eval.stats import diff_ci, paired, per_seed_stat, ratio_ci, verdict
 from wqwarp.rl.presets import PAPER_NAMES
 from wqwarp.rl.tasks import TASKS
 
@@ -64,11 +64,6 @@ def read_json(path: str) -> dict | None:
         return json.load(f)
 
 
-_stat = per_seed_stat
-"""Mean, sample standard deviation, count, 95 % interval over seeds and the value of each seed, of ``(seed, value)``
-pairs; None without a value."""
-
-
 def _fmt(s: dict | None, digits: int = 1, scale: float = 1.0) -> str:
     """``mean`` for one seed, ``mean ± h`` for several: h the half-width of the 95 % interval over seeds."""
     if s is None:
@@ -89,7 +84,7 @@ def _command_variance(result: dict) -> float:
 
 def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
     """Per preset: tracking and push metrics (mean, standard deviation, 95 % interval over seeds and each seed's
-    value: :func:`_stat`), sim-to-sim results per physics, and which files exist."""
+    value: :func:`~wqwarp.eval.stats.per_seed_stat`), sim-to-sim results per physics, and which files exist."""
     ev = os.path.join(work, "eval")
     out: dict = {"presets": {}, "missing": []}
     for p in presets:
@@ -114,22 +109,24 @@ def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
                     for r in block["results"]:
                         s2s.setdefault((phys, r["task"]), []).append((s, r))
         for task, rs in tracking.items():
-            entry["tracking"][task] = {m: _stat([(s, r.get(m)) for s, r in rs]) for m in METRICS}
+            entry["tracking"][task] = {m: per_seed_stat([(s, r.get(m)) for s, r in rs]) for m in METRICS}
             usage = [r.get("gait_usage") or {} for _, r in rs]
             gaits = sorted({g for u in usage for g in u})
             entry["tracking"][task]["gait_usage"] = {g: statistics.fmean(u.get(g, 0.0) for u in usage) for g in gaits}
-            entry["tracking"][task]["legged_share"] = _stat(
+            entry["tracking"][task]["legged_share"] = per_seed_stat(
                 [(s, sum((r.get("gait_usage") or {}).get(g, 0.0) for g in LEGGED)) for s, r in rs]
             )
             entry["tracking"][task]["outside_training_range"] = any(r.get("outside_training_range") for _, r in rs)
             entry["tracking"][task]["command_variance"] = _command_variance(rs[0][1])
         for task, rs in nominal.items():  # the nominal gait with zero residual (reproduce stage nominal)
-            entry["nominal"][task] = {m: _stat([(s, r.get(m)) for s, r in rs]) for m in METRICS}
+            entry["nominal"][task] = {m: per_seed_stat([(s, r.get(m)) for s, r in rs]) for m in METRICS}
         for (lvl, task), rs in push.items():
-            stats = {m: _stat([(s, r.get(m)) for s, r in rs]) for m in ("upright", "falls")}
+            stats = {m: per_seed_stat([(s, r.get(m)) for s, r in rs]) for m in ("upright", "falls")}
             entry["push"].setdefault(str(lvl), {})[task] = stats
         for (phys, task), rs in s2s.items():
-            entry["sim2sim"].setdefault(phys, {})[task] = {m: _stat([(s, r.get(m)) for s, r in rs]) for m in S2S_KEYS}
+            entry["sim2sim"].setdefault(phys, {})[task] = {
+                m: per_seed_stat([(s, r.get(m)) for s, r in rs]) for m in S2S_KEYS
+            }
         out["presets"][p] = entry
     return out
 
@@ -141,7 +138,7 @@ S2S_KEYS = ("mse", "mean_p_cost", "mean_p_cost_legs", "mean_p_cost_wheels", "mea
 def draw_tracking_power(runs: list[tuple[str, dict]], path: str, tasks=("vx", "vy", "wz", "stand")) -> None:
     """The paper's Fig. 5 layout: tracking MSE and mean p_cost per task, one bar per method at the mean over seeds,
     error bars = its 95 % interval over seeds (none for one seed). ``runs``: ``[(label, {task: {"mse": stat,
-    "mean_p_cost": stat}})]`` with ``stat`` a :func:`_stat` dict."""
+    "mean_p_cost": stat}})]`` with ``stat`` a :func:`~wqwarp.eval.stats.per_seed_stat` dict."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -430,10 +427,9 @@ MOVING = ("vx", "vy", "wz")
 
 def _cell(label: str, kind: str, a, b, bound: float, side: str) -> dict:
     """One comparison of a claim: ``kind`` ratio (``a`` / ``b`` paired by seed, :func:`wqwarp.eval.stats.ratio_ci`),
-    diff (``a - b`` paired by seed) or mean (of ``a`` alone); ``a``, ``b`` :func:`_stat` dicts. The verdict of
-    "the estimate is ``side`` ``bound``" from its 95 % interval (:func:`wqwarp.eval.stats.verdict`)."""
-    from wqwarp.eval.stats import diff_ci, paired, ratio_ci, verdict
-
+    diff (``a - b`` paired by seed) or mean (of ``a`` alone); ``a``, ``b`` :func:`~wqwarp.eval.stats.per_seed_stat`
+    dicts. The verdict of "the estimate is ``side`` ``bound``" from its 95 % interval
+    (:func:`wqwarp.eval.stats.verdict`)."""
     est = None
     if kind == "mean" and a:
         est = {"estimate": a["mean"], "ci95": a["ci95"], "n": a["n"], "per_seed": a["per_seed"]}
@@ -450,12 +446,12 @@ def _cell(label: str, kind: str, a, b, bound: float, side: str) -> dict:
 
 def _over_tasks(block: dict, metric: str, tasks=MOVING, reduce=statistics.fmean) -> dict | None:
     """Per seed, ``reduce`` of ``metric`` over ``tasks`` of one method's tracking block (e.g. the mean power over
-    the three moving tasks), as a :func:`_stat`."""
+    the three moving tasks), as a :func:`~wqwarp.eval.stats.per_seed_stat`."""
     stats = [(block.get(t) or {}).get(metric) for t in tasks]
     if not all(stats):
         return None
     seeds = sorted(set.intersection(*(set(st["per_seed"]) for st in stats)), key=int)
-    return _stat([(sd, reduce([st["per_seed"][sd] for st in stats])) for sd in seeds])
+    return per_seed_stat([(sd, reduce([st["per_seed"][sd] for st in stats])) for sd in seeds])
 
 
 def paper_claims(summary: dict) -> list[dict]:
@@ -777,8 +773,6 @@ def _task_lines(names: list[str]) -> str:
 def _sim2sim_rows(pres: dict) -> list[str]:
     """The sim-to-sim table's rows: per method and physics, each seed's mean over the moving tasks of MSE, p_cost,
     p_elec and upright share, and its change from the training physics paired by seed."""
-    from wqwarp.eval.stats import diff_ci, paired
-
     rows = []
     for p, e in pres.items():
         s2s = e.get("sim2sim") or {}
