@@ -161,6 +161,16 @@ def test_smoke_reproduction_writes_every_artefact_and_resumes(tmp_path, capsys):
     assert command.main(["--presets", "nope"]) == 2
 
 
+def test_a_reproduction_finishes_each_run_before_training_the_next():
+    """Run by run, not stage by stage: a session that ends mid-reproduction leaves each finished training with all
+    its evaluations (checkpoints do not outlive the machine); stages keep their own order whatever ``--stages`` says,
+    and the report is no step."""
+    steps = reproduce.plan(["ours", "pmtg"], [11, 12], ["push", "report", "tracking", "train"])
+    assert steps[:3] == [("ours", 11, "train"), ("ours", 11, "tracking"), ("ours", 11, "push")]
+    assert [(t, sd) for t, sd, _ in steps[::3]] == [("ours", 11), ("ours", 12), ("pmtg", 11), ("pmtg", 12)]
+    assert len(steps) == 12 and all(st != "report" for *_, st in steps)
+
+
 def test_training_progress_reads_the_runs_metrics_not_its_console(tmp_path):
     """The training stage's echo comes from ``metrics.jsonl`` (ProgressLogger's rows): the last iteration and an ETA
     from the mean wall time of the latest iterations; nothing before the first row, a line cut short is skipped."""

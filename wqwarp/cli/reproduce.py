@@ -142,16 +142,14 @@ def main(argv: list[str] | None = None) -> int:
     )
     t0 = time.time()
     failed = []
-    for stage in [s for s in stages if s != "report"]:
-        for task in tasks:
-            for seed in seeds:
-                ok = (
-                    R.stage_train(args, budget, task, seed)
-                    if stage == "train"
-                    else R.stage_eval(args, budget, task, seed, stage)
-                )
-                if not ok:
-                    failed.append(f"{stage} {task} seed {seed}")
+    for task, seed, stage in R.plan(tasks, seeds, stages):
+        ok = (
+            R.stage_train(args, budget, task, seed)
+            if stage == "train"
+            else R.stage_eval(args, budget, task, seed, stage)
+        )
+        if not ok:
+            failed.append(f"{stage} {task} seed {seed}")
     if "report" in stages:
         done = {(t, sd) for t in tasks for sd in seeds if R.trained(args.work, t, sd, budget)}
         write_report(args.work, args.out, args.budget, budget, tasks, seeds, wall_s=time.time() - t0, trained=done)

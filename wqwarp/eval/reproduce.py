@@ -10,21 +10,23 @@ Examples::
     python train/reproduce.py --budget gpu --device cuda:0        # the paper's 4096 robots x 4000 iterations
     python train/reproduce.py --budget cpu --stages report        # rebuild the page from finished stages
 
-Stages, in order (``--stages`` picks some): ``train`` (``train/ppo_newton.py`` per preset and seed), then one stage per
-evaluation protocol (``wqwarp.eval.protocols``): ``tracking`` (stand, v_x, v_y, w tasks, power per joint group, cost of
-transport), ``push`` (Table III), ``sim2sim`` (every method's checkpoints under the paper's dt 0.001 x 20, the authors'
-joint model, and the authors' own robot MJCF under our controller and under their wheel law), ``timeline`` (the paper's
-Fig. 6: one robot, stand -> forward -> rotate -> lateral), ``energymap`` (per gait measured and predicted power over a
-(v_x, v_y) and a (v_x, w) grid, and the winning gait), ``nominal`` (the ``ours`` configuration's nominal driving gait
-with zero residual on the stand and v_x tasks: the floor its energy targets compare the policy with) and ``report``
-(``RESULTS.md``, ``results.json``, PNGs).
+Stages, in order for each task and seed (``--stages`` picks some): ``train`` (``train/ppo_newton.py``), then one
+stage per evaluation protocol (``wqwarp.eval.protocols``): ``tracking`` (stand, v_x, v_y, w tasks, power per joint
+group, cost of transport), ``push`` (Table III), ``sim2sim`` (every method's checkpoints under the paper's dt 0.001 x
+20, the authors' joint model, and the authors' own robot MJCF under our controller and under their wheel law),
+``timeline`` (the paper's Fig. 6: one robot, stand -> forward -> rotate -> lateral), ``energymap`` (per gait measured
+and predicted power over a (v_x, v_y) and a (v_x, w) grid, and the winning gait), ``nominal`` (the ``ours``
+configuration's nominal driving gait with zero residual on the stand and v_x tasks: the floor its energy targets
+compare the policy with); then ``report`` (``RESULTS.md``, ``results.json``, PNGs) over all of them.
 
 Training runs ``train/ppo_newton.py`` in a child process (its progress on a terminal read from the run's
 ``metrics.jsonl``, never from its console); each evaluation calls its protocol in this process. Every
 stage's output goes to a log next to its result, and its result is written atomically under ``--work`` with the
 equivalent command line; a stage whose result is already there is skipped, and an interrupted training resumes from
-its last checkpoint. Re-running the same command therefore continues where a crash or a time limit stopped it. A
-stage that fails is reported and the others go on; the page lists what is missing.
+its last checkpoint. Re-running the same command therefore continues where a crash or a time limit stopped it. A task
+and seed runs all its stages before the next one trains (:func:`plan`), so a session that ends leaves each finished
+training evaluated: checkpoints do not outlive a machine, the committed results do. A stage that fails is reported
+and the others go on; the page lists what is missing.
 """
 
 from __future__ import annotations
@@ -182,6 +184,14 @@ STAGE_PROTOCOL = {"nominal": "tracking"}
 """Stages that are a protocol under other options: ``nominal`` is the tracking protocol on the stand and v_x tasks
 with every action 0 and the driving gait forced (the nominal gait alone: the floor of the energy targets)."""
 STAGES = ("train", *EVAL_STAGES, "report")
+
+
+def plan(tasks: list[str], seeds: list[int], stages: list[str]) -> list[tuple[str, int, str]]:
+    """The ``(task, seed, stage)`` steps of a reproduction, run by run: each task and seed's stages in ``STAGES``
+    order (training first) before the next run's; ``report`` is not a step (it reads them all at the end)."""
+    ordered = [s for s in STAGES if s in stages and s != "report"]
+    return [(t, sd, st) for t in tasks for sd in seeds for st in ordered]
+
 
 PREDICTIVE_ONLY = ("timeline", "energymap", "nominal")
 """Stages run only for presets with ``Preset.selection_studies`` (the figures of the gait selection, and the nominal
