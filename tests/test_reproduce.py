@@ -428,6 +428,21 @@ def test_the_sim2sim_table_pairs_each_physics_with_the_training_one_by_seed():
     )
 
 
+def test_the_push_and_sim2sim_tables_say_which_seeds_each_method_rests_on():
+    """A cell of one seed prints as a bare number, so the tables name each method's seeds: the union over its cells
+    (here PMTG pushed on seed 13 at one level, 12 at the other), 'none' without a record."""
+    from wqwarp.eval.report import _seeds_line
+
+    def cell(*seeds):
+        return {"upright": per_seed_stat([(s, 1.0) for s in seeds]), "falls": None}
+
+    pres = {
+        "ours": {"push": {}},
+        "pmtg": {"push": {"0.5": {"vx": cell(13)}, "0.7": {"vy": cell(12, 13)}}},
+    }
+    assert _seeds_line(pres, "push", "upright") == "Seeds with a record: Ours none; PMTG 12, 13."
+
+
 def test_the_readme_status_table_is_built_from_the_results_and_replaces_only_its_block(tmp_path):
     """The table quotes the page's numbers with their intervals and the claims' verdicts; a method not run reads
     "not run yet"; ``--write`` replaces only the block between the markers, ``--check`` fails on a stale table, and

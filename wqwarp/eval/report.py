@@ -770,6 +770,21 @@ def _task_lines(names: list[str]) -> str:
     return "; ".join(f"`{n}` = {TASKS[n].summary}" if n in TASKS else f"`{n}`" for n in names) or "not recorded"
 
 
+def _seeds_line(pres: dict, kind: str, metric: str) -> str:
+    """Which seeds each method's ``kind`` (push, sim2sim) cells rest on: the union over its cells of the seeds with a
+    ``metric`` value, so that a cell of one seed is not read as an interval over several."""
+    cells = []
+    for p, e in pres.items():
+        seeds = {
+            sd
+            for block in (e.get(kind) or {}).values()
+            for stats in block.values()
+            for sd in ((stats or {}).get(metric) or {}).get("per_seed", {})
+        }
+        cells.append(f"{PAPER_NAMES.get(p, p)} {', '.join(sorted(seeds, key=int)) if seeds else 'none'}")
+    return "Seeds with a record: " + "; ".join(cells) + "."
+
+
 def _sim2sim_rows(pres: dict) -> list[str]:
     """The sim-to-sim table's rows: per method and physics, each seed's mean over the moving tasks of MSE, p_cost,
     p_elec and upright share, and its change from the training physics paired by seed."""
@@ -946,6 +961,7 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
                 r = pres.get(p, {}).get("push", {}).get(str(lvl), {}).get(task)
                 cells.append(f"{_fmt(r['upright'], 1, 100.0) if r else '-'} / {ref:g}")
             lines.append(f"| {lvl:g} m/s | {SETTINGS[task]} | " + " | ".join(cells) + " |")
+    lines += ["", _seeds_line(pres, "push", "upright")]
     # Sim-to-sim.
     s2s_rows = _sim2sim_rows(pres)
     if s2s_rows:
@@ -966,6 +982,8 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
             "| dupright [pt] |",
             "|---|---|---|---|---|---|---|---|---|---|",
             *s2s_rows,
+            "",
+            _seeds_line({p: e for p, e in pres.items() if e.get("sim2sim")}, "sim2sim", "upright"),
         ]
     # Timeline and energy map.
     if "timeline" in summary["figures"]:
