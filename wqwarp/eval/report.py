@@ -961,7 +961,7 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
                 r = pres.get(p, {}).get("push", {}).get(str(lvl), {}).get(task)
                 cells.append(f"{_fmt(r['upright'], 1, 100.0) if r else '-'} / {ref:g}")
             lines.append(f"| {lvl:g} m/s | {SETTINGS[task]} | " + " | ".join(cells) + " |")
-    lines += ["", _seeds_line(pres, "push", "upright")]
+    lines += ["", _seeds_line({p: pres.get(p, {}) for p in TABLE3_ORDER}, "push", "upright")]
     # Sim-to-sim.
     s2s_rows = _sim2sim_rows(pres)
     if s2s_rows:
