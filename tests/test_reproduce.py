@@ -472,6 +472,11 @@ def test_the_readme_status_table_is_built_from_the_results_and_replaces_only_its
     assert "v_x task 0.50x [" in table and "**holds**" in table  # 10-12 W against 20-22 W, seed by seed
     assert "driving 90 ± 25 % of the v_x task" in table
     assert "| push recovery (Table III) | not run yet |" in table
+    summary["presets"]["no_predictor"]["push"] = {"0.5": {"vy": {"upright": st(0.9, 0.8, 1.0)}}}
+    assert "| not run yet for Ours; seeds with a push record: Ours none; Ours w/o switching 11, 12, 13 |" in (
+        status_table(summary)
+    )  # the others' push records are named, not hidden behind "not run yet"
+    del summary["presets"]["no_predictor"]["push"]
     readme = tmp_path / "README.md"
     readme.write_text(f"# title\n\n{BEGIN}\nold\n{END}\n\nrest\n")
     assert replace_block(readme.read_text(), table) == f"# title\n\n{table}\n\nrest\n"
