@@ -2,8 +2,8 @@
 restructured (main at bc08f71): rollout rewards, observations and actions, and the networks after the update
 (actor, critic, estimator, power predictor). The paper's cases are the ``-paper`` tasks; ``ours+omni`` is the former
 default main job (``ours`` with the ``omni`` levers, written out below), recorded when it became the default;
-``ours+select`` is the former ``--profile select`` recorded at 0788a8c, which the ``ours`` task must equal bit for
-bit (a lever added to the task: compare the task less that lever, in the case's overrides; issue 47's
+``ours+select`` is the former ``--profile select`` recorded at 0788a8c, which the ``ours`` task must equal to float32
+rounding (a lever added to the task: compare the task less that lever, in the case's overrides; issue 47's
 ``kinematic_reach`` is the one so far).
 
 ``python tests/test_behaviour_reference.py --record`` rewrites ``tests/data/first_iteration.npz``; do that only for a
@@ -74,10 +74,10 @@ def test_first_iteration_equals_the_recorded_one(head, task, seed, overrides):
     keys = sorted(k for k in ref.files if k.startswith(f"{head}/"))
     assert keys == sorted(now), "the recorded and current runs hold different tensors"
     for k in keys:
-        if head == "ours+select":  # recorded on this machine at 0788a8c: the ours task equals it bit for bit
-            np.testing.assert_array_equal(now[k], ref[k], err_msg=k)
-        else:  # float32 sums may round differently once a computation moves between torch and Warp
-            np.testing.assert_allclose(now[k], ref[k], rtol=1e-4, atol=1e-5, err_msg=k)
+        # Not bit for bit: float32 sums round differently on another CPU (the ours+select case, recorded at 0788a8c
+        # and equal bit for bit on that session's machine, differs on 2026-12-07's by at most 1.2e-7 in its
+        # actions), and once a computation moves between torch and Warp. A changed lever or reward moves far more.
+        np.testing.assert_allclose(now[k], ref[k], rtol=1e-4, atol=1e-5, err_msg=k)
 
 
 if __name__ == "__main__":
