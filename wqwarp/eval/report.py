@@ -770,9 +770,9 @@ def _task_lines(names: list[str]) -> str:
     return "; ".join(f"`{n}` = {TASKS[n].summary}" if n in TASKS else f"`{n}`" for n in names) or "not recorded"
 
 
-def _seeds_line(pres: dict, kind: str, metric: str) -> str:
-    """Which seeds each method's ``kind`` (push, sim2sim) cells rest on: the union over its cells of the seeds with a
-    ``metric`` value, so that a cell of one seed is not read as an interval over several."""
+def seeds_by_method(pres: dict, kind: str, metric: str) -> str:
+    """Which seeds each method's ``kind`` (push, sim2sim) cells rest on, e.g. ``Ours none; PMTG 12, 13``: the union
+    over its cells of the seeds with a ``metric`` value, so that a cell of one seed is not read as an interval."""
     cells = []
     for p, e in pres.items():
         seeds = {
@@ -782,7 +782,12 @@ def _seeds_line(pres: dict, kind: str, metric: str) -> str:
             for sd in ((stats or {}).get(metric) or {}).get("per_seed", {})
         }
         cells.append(f"{PAPER_NAMES.get(p, p)} {', '.join(sorted(seeds, key=int)) if seeds else 'none'}")
-    return "Seeds with a record: " + "; ".join(cells) + "."
+    return "; ".join(cells)
+
+
+def _seeds_line(pres: dict, kind: str, metric: str) -> str:
+    """The line under the push and sim-to-sim tables: :func:`seeds_by_method` as a sentence."""
+    return f"Seeds with a record: {seeds_by_method(pres, kind, metric)}."
 
 
 def _sim2sim_rows(pres: dict) -> list[str]:

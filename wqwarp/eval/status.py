@@ -6,7 +6,7 @@ run yet"."""
 
 from __future__ import annotations
 
-from wqwarp.eval.report import MOVING, PLAIN_NAMES, _fmt, _over_tasks, _seeds_line, cell_text
+from wqwarp.eval.report import MOVING, PLAIN_NAMES, _fmt, _over_tasks, cell_text, seeds_by_method
 from wqwarp.rl.presets import PAPER_NAMES
 
 BEGIN = "<!-- status table: built by tools/readme_status.py from docs/results/cpu/results.json; do not edit -->"
@@ -84,8 +84,7 @@ def status_table(summary: dict) -> str:
         if push_ours else NOT_RUN
     )  # fmt: skip
     if not push_ours and any(e.get("push") for e in pres.values()):  # the others' records, so none is hidden
-        seeds = _seeds_line(pres, "push", "upright").removeprefix("Seeds with a record: ").rstrip(".")
-        push = f"{NOT_RUN} for Ours; seeds with a push record: {seeds}"
+        push = f"{NOT_RUN} for Ours; seeds with a push record: {seeds_by_method(pres, 'push', 'upright')}"
     s2s = []
     for p, e in pres.items():
         block = e.get("sim2sim") or {}
