@@ -35,3 +35,16 @@ def test_falls_are_split_at_the_limit_and_arms_paired_by_seed(tmp_path, capsys):
     assert lateral_range.main(["--a", f"11={a11}", "--b", f"12={b12}"]) == 2  # no shared seed
     (tmp_path / "tracking.json").write_text(json.dumps({"results": [{"task": "vy", "max_push": 0.0}]}))
     assert lateral_range.main(["--a", f"11={tmp_path / 'tracking.json'}", "--b", f"11={b11}"]) == 2
+
+
+def test_arm_a_alone_splits_its_falls_on_every_seed(tmp_path, capsys):
+    a11 = _record(tmp_path / "a11.json", 0.9, 0.8, ([-1.0, 0.95, 0.5], [-1.0, 0.8, 0.72, 0.7, 0.1]))
+    a12 = _record(tmp_path / "a12.json", 0.95, 0.9, ([1.0], [1.0, -0.9]))
+    out = tmp_path / "a.json"
+    assert lateral_range.main(["--a", f"11={a11},12={a12}", "--json", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert r["seeds"] == ["11", "12"]
+    lvl = r["levels"]["0.7"]
+    assert set(lvl["per_seed"]["12"]) == {"A"} and lvl["upright_B_minus_A"] is None
+    assert lvl["falls_total"] == {"A": {"falls": 7, "fallen_within": 2, "fallen_past": 5}}
+    assert "A, all seeds: falls 2 within / 5 past 0.7 m/s" in capsys.readouterr().out

@@ -493,3 +493,17 @@ def test_the_readme_status_table_is_built_from_the_results_and_replaces_only_its
 
 
 MOVING_TASKS = ("vx", "vy", "wz")
+
+
+def test_a_missing_evaluation_of_an_imported_run_without_checkpoints_says_it_needs_training(tmp_path):
+    from wqwarp.eval.report import IMPORTED, collect
+
+    for run, marker in (("ours_s1", True), ("ours_s2", False)):
+        (tmp_path / "train" / run).mkdir(parents=True)
+        if marker:
+            (tmp_path / "train" / run / IMPORTED).write_text("{}")
+    missing = collect(str(tmp_path), ["ours"], [1, 2])["missing"]
+    assert "push ours seed 1 (imported, no checkpoint)" in missing
+    assert "push ours seed 2" in missing  # not imported: re-running the reproduction evaluates it
+    (tmp_path / "train" / "ours_s1" / "model_9.pt").write_bytes(b"")
+    assert "push ours seed 1" in collect(str(tmp_path), ["ours"], [1])["missing"]

@@ -6,10 +6,13 @@ Usage::
 
     python tools/studies/lateral_range.py --a 11=A_s11_push.json,12=A_s12_push.json \\
         --b 11=B_s11_push.json,12=B_s12_push.json [--limit 0.7] [--json PATH]
+    python tools/studies/lateral_range.py --a 11=A_s11_push.json,12=A_s12_push.json,13=A_s13_push.json
 
 Per arm, seed and push level of the v_y setting: the share upright, the falls split by the fallen robot's lateral
 command (within ``--limit`` or past it), and over the seeds the paired difference B - A of the share upright with
-its 95 % interval (``wqwarp.eval.stats``). Nothing is simulated here: the numbers are the records'.
+its 95 % interval (``wqwarp.eval.stats``). Without ``--b``, arm A alone: its falls split by command on every seed
+given, and their totals (where do the task's own lateral falls come from). Nothing is simulated here: the numbers
+are the records'.
 """
 
 from __future__ import annotations
@@ -52,21 +55,27 @@ def fall_split(row: dict, limit: float) -> dict:
 def compare(a: dict, b: dict, limit: float) -> dict:
     from wqwarp.eval.stats import diff_ci
 
-    seeds = [s for s in a if s in b]
+    seeds = [s for s in a if s in b] if b else list(a)
     levels = sorted({lvl for arm in (a, b) for rows in arm.values() for lvl in rows}, key=float)
     out: dict = {"seeds": seeds, "limit": limit, "levels": {}}
     for lvl in levels:
         per_seed = {}
         for s in seeds:
-            ra, rb = a[s].get(lvl), b[s].get(lvl)
-            if ra is None or rb is None:
+            rows = {"A": a[s].get(lvl)} | ({"B": b[s].get(lvl)} if b else {})
+            if None in rows.values():
                 continue
-            per_seed[s] = {
-                arm: {"upright": float(r["upright"]), **fall_split(r, limit)} for arm, r in (("A", ra), ("B", rb))
-            }
+            per_seed[s] = {arm: {"upright": float(r["upright"]), **fall_split(r, limit)} for arm, r in rows.items()}
         paired = list(per_seed)
-        diff = diff_ci([per_seed[s]["B"]["upright"] for s in paired], [per_seed[s]["A"]["upright"] for s in paired])
-        out["levels"][lvl] = {"per_seed": per_seed, "upright_B_minus_A": diff}
+        diff = (
+            diff_ci([per_seed[s]["B"]["upright"] for s in paired], [per_seed[s]["A"]["upright"] for s in paired])
+            if b
+            else None
+        )
+        totals = {
+            arm: {k: sum(per_seed[s][arm][k] for s in paired) for k in ("falls", "fallen_within", "fallen_past")}
+            for arm in ("A", "B")[: 2 if b else 1]
+        }
+        out["levels"][lvl] = {"per_seed": per_seed, "falls_total": totals, "upright_B_minus_A": diff}
     return out
 
 
@@ -74,14 +83,16 @@ def compare(a: dict, b: dict, limit: float) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = doc_parser(__doc__)
     ap.add_argument("--a", required=True, help="arm A's push records, SEED=FILE,... (the task's lateral range)")
-    ap.add_argument("--b", required=True, help="arm B's push records, SEED=FILE,... (the wider lateral range)")
+    ap.add_argument(
+        "--b", help="arm B's push records, SEED=FILE,... (the wider lateral range); without it, arm A's falls alone"
+    )
     ap.add_argument("--limit", type=float, default=0.7, help="arm A's lateral training range [m/s] (default 0.7)")
     add_result_options(ap, plot=None)
     args = ap.parse_args(sys.argv[1:] if argv is None else argv)
     if not args.limit > 0:
         raise UsageError(f"--limit {args.limit}: must be > 0")
     ap.check_outputs(args.json)
-    result = compare(read_arm(args.a, "--a"), read_arm(args.b, "--b"), args.limit)
+    result = compare(read_arm(args.a, "--a"), read_arm(args.b, "--b") if args.b else {}, args.limit)
     if not result["seeds"]:
         raise UsageError("--a and --b share no seed")
     for lvl, block in result["levels"].items():
@@ -93,6 +104,8 @@ def main(argv: list[str] | None = None) -> int:
                 for arm, r in arms.items()
             )
             print(f"  seed {s}: {cells}")
+        for arm, t in block["falls_total"].items():
+            print(f"  {arm}, all seeds: falls {t['fallen_within']} within / {t['fallen_past']} past {args.limit:g} m/s")
         d = block["upright_B_minus_A"]
         if d:
             ci = f" [{100 * d['ci95'][0]:+.1f}, {100 * d['ci95'][1]:+.1f}]" if d["ci95"] else ""

@@ -82,6 +82,10 @@ def _command_variance(result: dict) -> float:
     return statistics.fmean(c * c for c in cmds)
 
 
+IMPORTED = "imported.json"
+"""Marker in a run folder whose training was done by an earlier reproduction and imported (``--import-from``)."""
+
+
 def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
     """Per preset: tracking and push metrics (mean, standard deviation, 95 % interval over seeds and each seed's
     value: :func:`~wqwarp.eval.stats.per_seed_stat`), sim-to-sim results per physics, and which files exist."""
@@ -95,9 +99,11 @@ def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
             files = {k: os.path.join(ev, f"{p}_s{s}_{k}.json") for k in kinds}
             t, pu, ss, nom = (read_json(files[k]) for k in kinds)
             entry["seeds"][s] = {k: os.path.relpath(v, work) for k, v in files.items() if os.path.isfile(v)}
+            run = os.path.join(work, "train", f"{p}_s{s}")
+            gone = os.path.isfile(os.path.join(run, IMPORTED)) and not glob.glob(os.path.join(run, "model_*.pt"))
             for k, d in (("tracking", t), ("push", pu)):
-                if d is None:
-                    out["missing"].append(f"{k} {p} seed {s}")
+                if d is None:  # an imported run without its checkpoints cannot be evaluated: only trained again
+                    out["missing"].append(f"{k} {p} seed {s}" + (" (imported, no checkpoint)" if gone else ""))
             for d, into in ((t, tracking), (nom, nominal)):
                 for r in (d or {}).get("results", []):
                     into.setdefault(r["task"], []).append((s, r))
@@ -869,7 +875,12 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
         lines += ["**Where this budget falls short of the paper:** " + "; ".join(short) + ".", ""]
     missing = summary.get("missing") or []
     if missing:
-        lines += ["**Not run (yet):** " + "; ".join(missing) + ". Re-running the same command continues.", ""]
+        again = (
+            "; an imported run without its checkpoints is evaluated only by training it again, a new sample of its seed"
+            if any(m.endswith("(imported, no checkpoint)") for m in missing)
+            else ""
+        )
+        lines += ["**Not run (yet):** " + "; ".join(missing) + f". Re-running the same command continues{again}.", ""]
     # Tracking and energy.
     lines += [
         "## Tracking and energy (the paper's Fig. 5)",

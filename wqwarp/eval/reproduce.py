@@ -46,7 +46,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import TextIO
 
-from wqwarp.eval.report import config_task, read_json
+from wqwarp.eval.report import IMPORTED, config_task, read_json
 from wqwarp.eval.timeline import fig6_segments
 from wqwarp.rl.tasks import BUDGET, TASKS, recipe_differences
 from wqwarp.utils.io import open_text, repo_path, write_text_atomic
@@ -275,10 +275,6 @@ def _report_status(label: str, ok: bool, log: str, t0: float, code: object = 1) 
     status = "done" if ok else f"FAILED (exit {code}, see {log})"
     print(f"\r[{time.strftime('%H:%M:%S')}] {label}: {status} in {time.time() - t0:.0f} s", flush=True)
     return ok
-
-
-IMPORTED = "imported.json"
-"""Marker in a run folder whose training was done by an earlier reproduction and imported (``--import-from``)."""
 
 
 def recorded_recipe_differences(cfg: dict, task: str) -> list[str]:
