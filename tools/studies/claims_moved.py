@@ -47,16 +47,16 @@ def compare(before: dict, after: dict) -> dict:
             "measure": (a or b)["measure"],
             "before": {k: b.get(k) for k in keep},
             "after": {k: a.get(k) for k in keep},
-            "moved": b.get("estimate") is not None
-            and a.get("estimate") is not None
-            and b.get("verdict") != a.get("verdict"),
         }
-    both = [k for k, r in rows.items() if r["before"]["estimate"] is not None and r["after"]["estimate"] is not None]
+    data = {side: [k for k, r in rows.items() if r[side]["estimate"] is not None] for side in ("before", "after")}
+    both = [k for k in data["before"] if k in data["after"]]
+    for k, r in rows.items():
+        r["moved"] = k in both and r["before"]["verdict"] != r["after"]["verdict"]
     return {
         "cells": rows,
         "moved": [k for k in both if rows[k]["moved"]],
         "compared": len(both),
-        "only_after": [k for k, r in rows.items() if r["before"]["estimate"] is None and k not in both],
+        "only_after": [k for k in data["after"] if k not in data["before"]],
     }
 
 

@@ -57,11 +57,12 @@ def compare(a: dict, b: dict, limit: float) -> dict:
 
     seeds = [s for s in a if s in b] if b else list(a)
     levels = sorted({lvl for arm in (a, b) for rows in arm.values() for lvl in rows}, key=float)
+    arms = {"A": a, "B": b} if b else {"A": a}
     out: dict = {"seeds": seeds, "limit": limit, "levels": {}}
     for lvl in levels:
         per_seed = {}
         for s in seeds:
-            rows = {"A": a[s].get(lvl)} | ({"B": b[s].get(lvl)} if b else {})
+            rows = {arm: records[s].get(lvl) for arm, records in arms.items()}
             if None in rows.values():
                 continue
             per_seed[s] = {arm: {"upright": float(r["upright"]), **fall_split(r, limit)} for arm, r in rows.items()}
@@ -73,7 +74,7 @@ def compare(a: dict, b: dict, limit: float) -> dict:
         )
         totals = {
             arm: {k: sum(per_seed[s][arm][k] for s in paired) for k in ("falls", "fallen_within", "fallen_past")}
-            for arm in ("A", "B")[: 2 if b else 1]
+            for arm in arms
         }
         out["levels"][lvl] = {"per_seed": per_seed, "falls_total": totals, "upright_B_minus_A": diff}
     return out

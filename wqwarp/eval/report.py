@@ -84,6 +84,14 @@ def _command_variance(result: dict) -> float:
 
 IMPORTED = "imported.json"
 """Marker in a run folder whose training was done by an earlier reproduction and imported (``--import-from``)."""
+NO_CHECKPOINT = " (imported, no checkpoint)"
+"""How the not-run list marks an evaluation of an imported run without its checkpoints: only training it again (a new
+sample of its seed) evaluates it."""
+
+
+def run_dir(work: str, preset: str, seed: int) -> str:
+    """A reproduction's training folder of ``preset`` / ``seed`` under ``work``."""
+    return os.path.join(work, "train", f"{preset}_s{seed}")
 
 
 def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
@@ -99,11 +107,11 @@ def collect(work: str, presets: list[str], seeds: list[int]) -> dict:
             files = {k: os.path.join(ev, f"{p}_s{s}_{k}.json") for k in kinds}
             t, pu, ss, nom = (read_json(files[k]) for k in kinds)
             entry["seeds"][s] = {k: os.path.relpath(v, work) for k, v in files.items() if os.path.isfile(v)}
-            run = os.path.join(work, "train", f"{p}_s{s}")
+            run = run_dir(work, p, s)
             gone = os.path.isfile(os.path.join(run, IMPORTED)) and not glob.glob(os.path.join(run, "model_*.pt"))
             for k, d in (("tracking", t), ("push", pu)):
-                if d is None:  # an imported run without its checkpoints cannot be evaluated: only trained again
-                    out["missing"].append(f"{k} {p} seed {s}" + (" (imported, no checkpoint)" if gone else ""))
+                if d is None:
+                    out["missing"].append(f"{k} {p} seed {s}" + (NO_CHECKPOINT if gone else ""))
             for d, into in ((t, tracking), (nom, nominal)):
                 for r in (d or {}).get("results", []):
                     into.setdefault(r["task"], []).append((s, r))
@@ -877,7 +885,7 @@ def render_markdown(summary: dict, budget_name: str, budget, res_dir: str, out: 
     if missing:
         again = (
             "; an imported run without its checkpoints is evaluated only by training it again, a new sample of its seed"
-            if any(m.endswith("(imported, no checkpoint)") for m in missing)
+            if any(m.endswith(NO_CHECKPOINT) for m in missing)
             else ""
         )
         lines += ["**Not run (yet):** " + "; ".join(missing) + f". Re-running the same command continues{again}.", ""]

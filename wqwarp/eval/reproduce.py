@@ -46,7 +46,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import TextIO
 
-from wqwarp.eval.report import IMPORTED, config_task, read_json
+from wqwarp.eval.report import IMPORTED, config_task, read_json, run_dir
 from wqwarp.eval.timeline import fig6_segments
 from wqwarp.rl.tasks import BUDGET, TASKS, recipe_differences
 from wqwarp.utils.io import open_text, repo_path, write_text_atomic
@@ -197,10 +197,6 @@ PREDICTIVE_ONLY = ("timeline", "energymap", "nominal")
 """Stages run only for presets with ``Preset.selection_studies`` (the figures of the gait selection, and the nominal
 gait the targets compare the policy with); sim-to-sim runs for every method (issue 49: the authors' robot for
 each)."""
-
-
-def run_dir(work: str, preset: str, seed: int) -> str:
-    return os.path.join(work, "train", f"{preset}_s{seed}")
 
 
 def checkpoints(d: str) -> list[tuple[int, str]]:
