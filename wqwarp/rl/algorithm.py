@@ -205,11 +205,24 @@ class WqPPO(PPO):
     """
 
     def __init__(
-        self, *args, update_threads: int | None = None, init_std_groups: list[float] | None = None, **kwargs
+        self,
+        *args,
+        update_threads: int | None = None,
+        init_std_groups: list[float] | None = None,
+        kl_per_update: bool = False,
+        **kwargs,
     ) -> None:
         """``init_std_groups``: the initial action std of each action group (``TrainConfig.init_noise_std_groups``,
-        groups of ``wqwarp.rl.observations.action_groups``), written into the actor's std parameter."""
+        groups of ``wqwarp.rl.observations.action_groups``), written into the actor's std parameter.
+        ``kl_per_update``: adapt the learning rate to ``desired_kl`` once per update (``TrainConfig.schedule``
+        ``adaptive_update``, with rsl-rl's schedule ``fixed``) instead of before every minibatch."""
         super().__init__(*args, **kwargs)
+        self.kl_per_update = bool(kl_per_update)
+        if self.kl_per_update and self.desired_kl is None:
+            raise ValueError("kl_per_update needs desired_kl")
+        self.update_kl: float | None = None
+        """KL of the policy after the last update against the one that collected its rollout (mean over the
+        rollout's transitions; with ``kl_per_update``)."""
         if init_std_groups:
             self.set_group_std(init_std_groups)
         self.update_threads = update_threads
@@ -307,10 +320,36 @@ class WqPPO(PPO):
             torch.set_num_threads(self.update_threads)
         try:
             loss_dict = super().update()
+            if self.kl_per_update:
+                self.adapt_learning_rate()
+                loss_dict["kl"] = self.update_kl
             loss_dict.update(self.fit_extensions())
         finally:
             torch.set_num_threads(before)
         return loss_dict
+
+    def adapt_learning_rate(self) -> None:
+        """rsl-rl's adaptive rule (divide by 1.5 above 2x ``desired_kl``, multiply by 1.5 below half, within
+        [1e-5, 1e-2]) applied once, to the KL of the updated policy (the one that collects the next rollout: its
+        normaliser moved too) against the one that collected the rollout, over all the rollout's transitions. The
+        storage still holds the rollout: rsl-rl's ``clear`` only rewinds its cursor."""
+        st = self.storage
+        obs = st.observations.flatten(0, 1)
+        old = tuple(p.flatten(0, 1) for p in st.distribution_params)
+        dist = self.actor.distribution
+        with torch.inference_mode():
+            dist.update(self.actor(obs))  # the Gaussian's deterministic output is the MLP's: no sample drawn
+            kl = self.actor.get_kl_divergence(old, dist.params).mean()
+            if self.is_multi_gpu:
+                torch.distributed.all_reduce(kl, op=torch.distributed.ReduceOp.SUM)
+                kl /= self.gpu_world_size
+        self.update_kl = float(kl)
+        if self.update_kl > self.desired_kl * 2.0:
+            self.learning_rate = max(1e-5, self.learning_rate / 1.5)
+        elif 0.0 < self.update_kl < self.desired_kl / 2.0:
+            self.learning_rate = min(1e-2, self.learning_rate * 1.5)
+        for group in self.optimizer.param_groups:
+            group["lr"] = self.learning_rate
 
     def fit_extensions(self) -> dict[str, float]:
         """Fit every extension on the rollout just collected, average it across ranks, advance the schedules."""

@@ -48,6 +48,8 @@ PhaseResidualMode = Literal["offset", "increment"]
 TEMPERATURE_SHAPES: tuple[str, ...] = typing.get_args(TemperatureShape)
 Symmetry = Literal["none", "augmentation", "mirror_loss", "both"]
 """Use of the left-right mirror in PPO (:attr:`TrainConfig.symmetry`, rsl-rl's ``symmetry_cfg``)."""
+LrSchedule = Literal["adaptive", "adaptive_update", "fixed"]
+"""How PPO's learning rate moves (:attr:`TrainConfig.schedule`)."""
 
 
 def _term_field(t: RewardTerm) -> tuple[str, object, dataclasses.Field]:
@@ -606,6 +608,16 @@ class TrainConfig(CheckedConfig):
     gamma: float = 0.99
     lam: float = 0.95
     desired_kl: float = 0.01
+    schedule: LrSchedule = field(
+        default="adaptive", metadata=migrate("adaptive", "rsl-rl's per-minibatch rule, the only one before the setting")
+    )
+    """How the learning rate follows ``desired_kl``. ``adaptive`` (rsl-rl's, legged_gym's): before every minibatch's
+    step, the KL of the policy so far in this update against the one that collected the rollout; above 2x the target
+    the rate is divided by 1.5, below half multiplied by 1.5. The KL accumulates over an update's steps, so the rate
+    climbs from its floor during the first minibatches and falls back to it by the last, and the rate logged (the
+    last one) sits at 1e-5 (docs/studies/fast_skill). ``adaptive_update``: the same rule once per update, on the KL
+    of the policy that collects the next rollout against the one that collected this one, over the whole rollout;
+    every step of an update runs at one rate. ``fixed``: ``learning_rate`` throughout."""
     clip_param: float = 0.2
     algorithm_class: str = "wqwarp.rl.algorithm:WqPPO"
     """The PPO class rsl-rl's runner builds (``"module:Class"``, importable): :class:`wqwarp.rl.algorithm.WqPPO` or a
@@ -679,7 +691,8 @@ class TrainConfig(CheckedConfig):
                 "lam": self.lam,
                 "entropy_coef": self.entropy_coef,
                 "desired_kl": self.desired_kl,
-                "schedule": "adaptive",
+                "schedule": "adaptive" if self.schedule == "adaptive" else "fixed",
+                "kl_per_update": self.schedule == "adaptive_update",
                 "value_loss_coef": 1.0,
                 "max_grad_norm": 1.0,
                 "use_clipped_value_loss": True,
