@@ -1,7 +1,11 @@
 """Where PPO's KL comes from (issue 60): the KL of every minibatch before its gradient step, the learning rate
 the adaptive schedule then sets, and the KL split into its mean and std parts, per action group.
 
-    python docs/studies/fast_skill/kl_probe.py --iterations 30 --json docs/studies/fast_skill/kl_probe.json
+    python docs/studies/fast_skill/kl_probe.py --iterations 6 --json docs/studies/fast_skill/kl_probe_ours_s1.json
+    python docs/studies/fast_skill/kl_probe.py --iterations 6 --checkpoint RUN/model_500.pt --json ...
+
+Per probed iteration: the learning rate it starts with, the one before each minibatch's step, the one it leaves, and
+the KL before each step, split into the mean and the std terms per action group (phase, foot, wheel).
 
 The probe is a subclass of the training algorithm (``KLProbePPO``); the training it runs is the ``ours`` task's.
 """
@@ -81,6 +85,7 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--num-envs", type=int, default=128)
     p.add_argument("--set", action="append", default=[], help="PATH=VALUE (python literal) over the task")
+    p.add_argument("--checkpoint", default=None, help="start from this checkpoint (networks, optimizer, rate)")
     p.add_argument("--json", default=None)
     a = p.parse_args(argv)
     import ast
@@ -108,8 +113,9 @@ def main(argv=None) -> int:
     with contextlib.redirect_stdout(io.StringIO()):
         runner = WqRunner(env, train.rsl_rl_dict(), log_dir=None, device="cpu")
     runner.alg.update_threads = threads["update"]
-    with contextlib.redirect_stdout(io.StringIO()):
-        pass
+    if a.checkpoint:
+        runner.load(a.checkpoint, restore_rng=True)
+        runner.current_learning_iteration += 1
     runner.learn(a.iterations, init_at_random_ep_len=True)
     if a.json:
         with open(a.json, "w") as f:
