@@ -7,7 +7,8 @@ the adaptive schedule then sets, and the KL split into its mean and std parts, p
 Per probed iteration: the learning rate it starts with, the one before each minibatch's step, the one it leaves, and
 the KL before each step, split into the mean and the std terms per action group (phase, foot, wheel).
 
-The probe is a subclass of the training algorithm (``KLProbePPO``); the training it runs is the ``ours`` task's.
+The probe is the task's actor and algorithm subclassed through rsl-rl's ``class_name`` entries (``KLRecordingMLPModel``
+records the KL readings, ``KLProbePPO`` the rates); the training it runs is the task's.
 """
 
 from __future__ import annotations
@@ -19,10 +20,12 @@ import json
 import sys
 
 import torch
+from rsl_rl.models import MLPModel
 
 from wqwarp.rl.algorithm import WqPPO
 
 RECORDS: list[dict] = []
+"""One entry per probed update."""
 
 
 def kl_parts(old_mu, old_sigma, mu, sigma):
@@ -32,47 +35,66 @@ def kl_parts(old_mu, old_sigma, mu, sigma):
     return mean_part, std_part
 
 
-class KLProbePPO(WqPPO):
-    def update(self):
+def rsl_rl_rule(lr: float, kl: float, desired: float) -> float:
+    """rsl-rl 5.5.1's adaptive rule (``PPO.update``): the rate after one minibatch's KL reading."""
+    if kl > desired * 2.0:
+        return max(1e-5, lr / 1.5)
+    if desired / 2.0 > kl > 0.0:
+        return min(1e-2, lr * 1.5)
+    return lr
+
+
+class KLRecordingMLPModel(MLPModel):
+    """rsl-rl's actor (named by the actor config's ``class_name``) that records every KL its PPO reads: the mean
+    over the minibatch and the mean and std terms per action group."""
+
+    readings: list[dict] = []
+
+    def get_kl_divergence(self, old_params, new_params):
         from wqwarp.rl.observations import action_groups
 
-        rec = {"iteration": self.iteration, "lr_in": self.learning_rate, "minibatches": []}
-        orig_kl = self.actor.get_kl_divergence
-        probe = self
-
-        def recording_kl(old, new):
-            kl = orig_kl(old, new)
-            (omu, osig), (mu, sig) = old, new
-            mpart, spart = kl_parts(omu, osig, mu, sig)
-            groups = action_groups(mu.shape[-1])
-            rec["minibatches"].append(
-                {
-                    "kl": float(kl.mean()),
-                    "lr_before": probe.learning_rate,
-                    "mean_part": {g: float(mpart[:, c].sum(-1).mean()) for g, c in groups.items()},
-                    "std_part": {g: float(spart[:, c].sum(-1).mean()) for g, c in groups.items()},
-                    "kl_p95": float(kl.quantile(0.95)),
-                    "kl_max": float(kl.max()),
-                }
-            )
-            return kl
-
-        self.actor.get_kl_divergence = recording_kl  # this probe's own instance, not the library class
-        try:
-            out = super().update()
-        finally:
-            del self.actor.get_kl_divergence
-        rec["lr_out"] = self.learning_rate
-        rec["std"] = (
-            [float(x) for x in self.actor.distribution.std_param.detach()]
-            if hasattr(self.actor.distribution, "std_param")
-            else None
+        kl = super().get_kl_divergence(old_params, new_params)
+        (omu, osig), (mu, sig) = old_params, new_params
+        mpart, spart = kl_parts(omu, osig, mu, sig)
+        groups = action_groups(mu.shape[-1])
+        self.readings.append(
+            {
+                "kl": float(kl.mean()),
+                "mean_part": {g: float(mpart[:, c].sum(-1).mean()) for g, c in groups.items()},
+                "std_part": {g: float(spart[:, c].sum(-1).mean()) for g, c in groups.items()},
+                "kl_p95": float(kl.quantile(0.95)),
+                "kl_max": float(kl.max()),
+            }
         )
+        return kl
+
+
+class KLProbePPO(WqPPO):
+    """The task's algorithm; after each update, the record of its KL readings with the rate before each step
+    (derived from the rule, checked against the rate the update left)."""
+
+    def update(self):
+        lr_in, iteration = self.learning_rate, self.iteration
+        KLRecordingMLPModel.readings.clear()
+        out = super().update()
+        minibatches, lr = [], lr_in
+        for reading in KLRecordingMLPModel.readings:
+            minibatches.append({**reading, "lr_before": lr})
+            lr = rsl_rl_rule(lr, reading["kl"], self.desired_kl)
+        if lr != self.learning_rate:
+            raise RuntimeError(f"the rule replayed gives {lr}, the update left {self.learning_rate}")
+        rec = {
+            "iteration": iteration,
+            "lr_in": lr_in,
+            "lr_out": self.learning_rate,
+            "minibatches": minibatches,
+            "std": [float(x) for x in self.actor.distribution.std_param.detach()],
+        }
         RECORDS.append(rec)
-        first = rec["minibatches"][0]
+        kls = [m["kl"] for m in minibatches]
         print(
-            f"it {rec['iteration']:4d} lr {rec['lr_in']:.2e} -> {rec['lr_out']:.2e}  first-minibatch KL "
-            f"{first['kl']:.2e}  second {rec['minibatches'][1]['kl']:.2e}  last {rec['minibatches'][-1]['kl']:.2e}",
+            f"it {rec['iteration']:4d} lr {lr_in:.2e} -> {rec['lr_out']:.2e}  first-minibatch KL {kls[0]:.2e}  "
+            f"second {kls[1]:.2e}  last {kls[-1]:.2e}",
             flush=True,
         )
         return out
@@ -105,13 +127,16 @@ def main(argv=None) -> int:
         except Exception:
             pass
         set_path({"env": cfg, "train": train}, k, v)
-    train.algorithm_class = "__main__:KLProbePPO" if __name__ == "__main__" else f"{__name__}:KLProbePPO"
+    here = "__main__" if __name__ == "__main__" else __name__
+    train.algorithm_class = f"{here}:KLProbePPO"
     threads = configure_threads(None, None, None, None)
     cfg.sim.nthread = threads["physics"]
     torch.manual_seed(a.seed)
     env = WheeledGo1Env(cfg)
     with contextlib.redirect_stdout(io.StringIO()):
-        runner = WqRunner(env, train.rsl_rl_dict(), log_dir=None, device="cpu")
+        rsl = train.rsl_rl_dict()
+        rsl["actor"]["class_name"] = f"{here}:KLRecordingMLPModel"  # rsl-rl's extension point for the actor
+        runner = WqRunner(env, rsl, log_dir=None, device="cpu")
     runner.alg.update_threads = threads["update"]
     if a.checkpoint:
         runner.load(a.checkpoint, restore_rng=True)
