@@ -13,6 +13,7 @@ import pytest
 import torch
 from helpers import task_runner
 
+from wqwarp.rl.algorithm import kl_rule
 from wqwarp.rl.config import TrainConfig
 
 
@@ -30,6 +31,15 @@ def _rollout_kl(alg) -> float:
         sigma = alg.actor.distribution.std_param.expand_as(mu)
         kl = torch.log(sigma / old_sigma) + (old_sigma**2 + (old_mu - mu) ** 2) / (2 * sigma**2) - 0.5
         return float(kl.sum(-1).mean())
+
+
+def test_kl_rule_hand_values():
+    assert kl_rule(1e-3, 0.03, 0.01) == pytest.approx(1e-3 / 1.5)  # above 2x the target
+    assert kl_rule(1e-3, 0.004, 0.01) == pytest.approx(1.5e-3)  # below half
+    assert kl_rule(1e-3, 0.01, 0.01) == 1e-3  # inside the band
+    assert kl_rule(1e-3, 0.0, 0.01) == 1e-3  # no step taken yet: rsl-rl leaves the rate
+    assert kl_rule(1.2e-5, 1.0, 0.01) == 1e-5  # the floor
+    assert kl_rule(8e-3, 1e-6, 0.01) == 1e-2  # the ceiling
 
 
 def test_the_rsl_rl_dict_carries_the_schedule():

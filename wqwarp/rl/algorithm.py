@@ -196,6 +196,16 @@ LEGACY_KEYS = {
 """Checkpoint entry -> where checkpoints of format 1 kept it (in ``infos``)."""
 
 
+def kl_rule(lr: float, kl: float, desired_kl: float) -> float:
+    """rsl-rl 5.5.1's adaptive rule (``PPO.update``, before each minibatch): the rate divided by 1.5 when ``kl`` is
+    above 2x ``desired_kl``, multiplied by 1.5 when it is positive and below half, within [1e-5, 1e-2]."""
+    if kl > desired_kl * 2.0:
+        return max(1e-5, lr / 1.5)
+    if 0.0 < kl < desired_kl / 2.0:
+        return min(1e-2, lr * 1.5)
+    return lr
+
+
 class WqPPO(PPO):
     """PPO (``rsl_rl.algorithms.PPO``) with the state estimator and the power predictor as extensions (module
     docstring).
@@ -329,10 +339,10 @@ class WqPPO(PPO):
         return loss_dict
 
     def adapt_learning_rate(self) -> None:
-        """rsl-rl's adaptive rule (divide by 1.5 above 2x ``desired_kl``, multiply by 1.5 below half, within
-        [1e-5, 1e-2]) applied once, to the KL of the updated policy (the one that collects the next rollout: its
-        normaliser moved too) against the one that collected the rollout, over all the rollout's transitions. The
-        storage still holds the rollout: rsl-rl's ``clear`` only rewinds its cursor."""
+        """rsl-rl's adaptive rule (:func:`kl_rule`) applied once, to the KL of the updated policy (the one that
+        collects the next rollout: its normaliser moved too) against the one that collected the rollout, over all
+        the rollout's transitions. The storage still holds the rollout: rsl-rl's ``clear`` only rewinds its
+        cursor."""
         st = self.storage
         obs = st.observations.flatten(0, 1)
         old = tuple(p.flatten(0, 1) for p in st.distribution_params)
@@ -344,10 +354,7 @@ class WqPPO(PPO):
                 torch.distributed.all_reduce(kl, op=torch.distributed.ReduceOp.SUM)
                 kl /= self.gpu_world_size
         self.update_kl = float(kl)
-        if self.update_kl > self.desired_kl * 2.0:
-            self.learning_rate = max(1e-5, self.learning_rate / 1.5)
-        elif 0.0 < self.update_kl < self.desired_kl / 2.0:
-            self.learning_rate = min(1e-2, self.learning_rate * 1.5)
+        self.learning_rate = kl_rule(self.learning_rate, self.update_kl, self.desired_kl)
         for group in self.optimizer.param_groups:
             group["lr"] = self.learning_rate
 

@@ -22,7 +22,7 @@ import sys
 import torch
 from rsl_rl.models import MLPModel
 
-from wqwarp.rl.algorithm import WqPPO
+from wqwarp.rl.algorithm import WqPPO, kl_rule
 
 RECORDS: list[dict] = []
 """One entry per probed update."""
@@ -33,15 +33,6 @@ def kl_parts(old_mu, old_sigma, mu, sigma):
     mean_part = (mu - old_mu).pow(2) / (2 * sigma.pow(2))
     std_part = torch.log(sigma / old_sigma) + old_sigma.pow(2) / (2 * sigma.pow(2)) - 0.5
     return mean_part, std_part
-
-
-def rsl_rl_rule(lr: float, kl: float, desired: float) -> float:
-    """rsl-rl 5.5.1's adaptive rule (``PPO.update``): the rate after one minibatch's KL reading."""
-    if kl > desired * 2.0:
-        return max(1e-5, lr / 1.5)
-    if desired / 2.0 > kl > 0.0:
-        return min(1e-2, lr * 1.5)
-    return lr
 
 
 class KLRecordingMLPModel(MLPModel):
@@ -80,7 +71,7 @@ class KLProbePPO(WqPPO):
         minibatches, lr = [], lr_in
         for reading in KLRecordingMLPModel.readings:
             minibatches.append({**reading, "lr_before": lr})
-            lr = rsl_rl_rule(lr, reading["kl"], self.desired_kl)
+            lr = kl_rule(lr, reading["kl"], self.desired_kl)
         if lr != self.learning_rate:
             raise RuntimeError(f"the rule replayed gives {lr}, the update left {self.learning_rate}")
         rec = {
